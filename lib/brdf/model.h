@@ -1,0 +1,70 @@
+// Runtime description of a reflectance model and its parameter vector, so
+// that fitting, rendering and material.json can treat every model of
+// lib/brdf alike. The formulas themselves live in one small header per model
+// (lambert.h, lafortune.h, cook_torrance.h, ...), templated on the scalar.
+//
+// Parameter vectors are flat arrays of T in the order given by Params(); the
+// names are what material.json stores. Colour parameters come as _r,_g,_b.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+
+namespace svbrdf {
+
+enum class Family {
+  kLambert,       // rd/pi
+  kOrenNayar,     // rd/pi (A + B max(0,cos(phi_i-phi_r)) sin(alpha) tan(beta))
+  kPhong,         // rd/pi + rs <R|E>^m / <N|L>          (not reciprocal, not energy conserving)
+  kBlinnPhong,    // rd/pi + rs <H|N>^m / <N|L>          (not reciprocal, not energy conserving)
+  kCosineLobe,    // Lewis 1993: rd/pi + rs (m+2)/(2 pi) <R|E>^m
+  kLafortune,     // rd/pi + sum_i rho_i (Cx Ex Lx + Cy Ey Ly + Cz Ez Lz)^n_i
+  kCookTorrance,  // rd/pi + rs/pi D G F / (4 <N|L><N|E>)
+};
+
+enum class Distribution { kBeckmann, kBlinnGaussian, kGGX };
+enum class Shadowing { kVCavity, kSmith };  // V-cavity min(1,Gm,Gs) or Smith (GGX/Beckmann)
+enum class FresnelMode { kExact, kSchlick, kNone };
+
+struct ParamInfo {
+  std::string name;         // e.g. "rd_r", "lobe0.cx", "roughness"
+  std::string description;  // meaning and unit
+  double lower, upper;      // documented valid range (also the fit bounds)
+  double initial;           // a sensible starting value for fits
+};
+
+struct ModelSpec {
+  Family family = Family::kLambert;
+  int lobes = 1;                 // Lafortune only: 1..3
+  bool anisotropic = false;      // Lafortune only: Cx != Cy allowed
+  Distribution distribution = Distribution::kBeckmann;  // Cook-Torrance only
+  Shadowing shadowing = Shadowing::kVCavity;            // Cook-Torrance only
+  FresnelMode fresnel = FresnelMode::kExact;            // Cook-Torrance only
+
+  // Stable name used in material.json "model", e.g. "lambert", "lafortune",
+  // "cook_torrance". Options (lobes, distribution, ...) are separate fields.
+  std::string Name() const;
+  // Human-readable short label, e.g. "lafortune-2-aniso", "cook_torrance-ggx".
+  std::string Label() const;
+  int NumParams() const;
+  std::vector<ParamInfo> Params() const;
+  std::vector<double> InitialParams() const;
+  // Parses a label as produced by Label() (also the CLI's --model values);
+  // throws Error listing the valid labels.
+  static ModelSpec FromLabel(const std::string& label);
+  bool operator==(const ModelSpec& o) const;
+};
+
+// Evaluates the model with parameters p (NumParams() values) for unit
+// directions in the local shading frame (z = normal): wi towards the light,
+// wo towards the viewer. Writes the BRDF value per channel into rgb[3] (1/sr).
+// Returns zeros when either direction is below the horizon.
+// Defined in model_eval.h for any scalar T (double, ceres::Jet).
+template <class T>
+void EvalModel(const ModelSpec& spec, const T* p, const Vec3T<T>& wi, const Vec3T<T>& wo, T* rgb);
+
+// double instantiation, compiled once (model.cc).
+Rgb EvalModelD(const ModelSpec& spec, const double* p, const Vec3& wi, const Vec3& wo);
+
+}  // namespace svbrdf

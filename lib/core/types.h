@@ -1,0 +1,29 @@
+// Basic math types shared by every module. Directions are unit Eigen vectors;
+// colours are linear RGB Eigen arrays.
+#pragma once
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace svbrdf {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+using Vec3i = Eigen::Vector3i;
+using Vec3f = Eigen::Vector3f;
+using Mat3 = Eigen::Matrix3d;
+using Rgb = Eigen::Array3d;
+template <class T> using Vec3T = Eigen::Matrix<T, 3, 1>;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Orthonormal shading frame: z is the normal. Tangent is chosen by the caller
+// (UV-aligned for anisotropic materials) or made up from the normal.
+struct Frame {
+  Vec3 t, b, n;
+  static Frame FromNormal(const Vec3& n);                 // deterministic tangent
+  static Frame FromNormalTangent(const Vec3& n, const Vec3& t);  // Gram-Schmidt; falls back to FromNormal
+  Vec3 ToLocal(const Vec3& w) const { return Vec3(w.dot(t), w.dot(b), w.dot(n)); }
+  Vec3 ToWorld(const Vec3& w) const { return w.x() * t + w.y() * b + w.z() * n; }
+};
+
+}  // namespace svbrdf

@@ -1,0 +1,31 @@
+// Per-texel BRDF samples, structure of arrays in float32 (compact: 44 bytes a
+// sample). Samples are sorted by texel; texel t owns [texel_begin[t], texel_begin[t+1]).
+//
+// Measurement model for sample s of texel t, channel c:
+//     y[c][s] = f_c(wi[s], wo[s]) * geom[s]
+// where f is the BRDF (1/sr) in the texel's local frame (z = normal),
+// y = pixel / (exposure * light intensity_c) (light intensity in W/sr, or the
+// irradiance of a directional light), and geom = cos(theta_i) / r^2 (cos(theta_i)
+// for directional lights, times the spot/goniometric angular factor).
+// Residuals of fits are therefore in units of reflected radiance per unit light.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+namespace svbrdf {
+
+struct SampleSet {
+  int num_texels = 0;
+  std::vector<int64_t> texel_begin;       // num_texels + 1 offsets
+  std::vector<int32_t> texel;             // texel index per sample (into Atlas::texels)
+  std::vector<int32_t> image;             // image index per sample (into Scene::images)
+  std::vector<float> wi[3], wo[3];        // unit directions, local frame
+  std::vector<float> geom;
+  std::vector<float> y[3];
+
+  int64_t size() const { return static_cast<int64_t>(geom.size()); }
+  void Reserve(int64_t n);
+  void Push(int32_t t, int32_t img, const float wi_[3], const float wo_[3], float g, const float y_[3]);
+};
+
+}  // namespace svbrdf

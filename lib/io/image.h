@@ -1,0 +1,44 @@
+// Image files, behind OpenImageIO. Pixels are float, row-major, interleaved
+// channels, row 0 at the top.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace svbrdf {
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<float> pixels;
+  // Largest value the file's format can hold (1 for integer formats after
+  // normalisation, +inf for float files); values >= this are saturated.
+  float saturation_level = 1.0f;
+
+  Image() = default;
+  Image(int w, int h, int c, float fill = 0.0f) : width(w), height(h), channels(c), pixels(size_t(w) * h * c, fill) {}
+  float& at(int x, int y, int c) { return pixels[(size_t(y) * width + x) * channels + c]; }
+  float at(int x, int y, int c) const { return pixels[(size_t(y) * width + x) * channels + c]; }
+  // Bilinear sample at continuous pixel coordinates with the COLMAP convention
+  // (pixel centres at +0.5), clamped at borders.
+  float Bilinear(double px, double py, int c) const;
+};
+
+enum class ColorSpace { kLinear, kSRGB };
+enum class PixelFormat { kFloat, kHalf, kUInt16, kUInt8 };
+
+float SrgbToLinear(float v);
+float LinearToSrgb(float v);
+
+// Reads any format OpenImageIO knows. Integer formats are normalised to
+// [0, 1]; if `space` is sRGB and the file is not EXR/HDR, values are decoded
+// to linear. Throws Error naming the file on failure.
+Image ReadImage(const std::string& path, ColorSpace space = ColorSpace::kLinear);
+// Writes with the format implied by `format` (EXR half/float, PNG/TIFF 16 bit,
+// PNG/JPEG 8 bit); integer formats are encoded with sRGB if `space` is sRGB,
+// clamped to [0,1]. Atomic: writes a temporary file and renames it.
+void WriteImage(const std::string& path, const Image& image, PixelFormat format = PixelFormat::kFloat,
+                ColorSpace space = ColorSpace::kLinear);
+
+// Fraction of pixels (of the given mask, if any) with any channel >= saturation_level.
+double SaturatedFraction(const Image& image, const Image* mask = nullptr);
+
+}  // namespace svbrdf

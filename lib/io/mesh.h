@@ -1,0 +1,30 @@
+// Triangle meshes: OBJ and PLY (ASCII and binary little-endian), with or
+// without texture coordinates. Positions and texture coordinates are indexed
+// separately, as in OBJ, so UV seams need no vertex splitting.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+
+namespace svbrdf {
+
+struct Mesh {
+  std::vector<Vec3> positions;
+  std::vector<Vec3i> faces;       // indices into positions
+  std::vector<Vec2> texcoords;    // (u, v), v up as in OBJ
+  std::vector<Vec3i> face_uvs;    // indices into texcoords; empty when the mesh has no UVs
+  std::vector<Vec3> normals;      // per position, area-weighted smooth normals (ComputeNormals)
+
+  bool HasUVs() const { return !face_uvs.empty(); }
+  void ComputeNormals();
+  // Throws Error naming `context` for out-of-range indices, NaNs, no faces,
+  // or only degenerate (zero-area) faces.
+  void Validate(const std::string& context) const;
+};
+
+Mesh LoadMesh(const std::string& path);  // by extension .obj / .ply; computes normals
+// Writes OBJ (with vt when present); atomic (temporary name, then rename).
+void SaveObj(const Mesh& mesh, const std::string& path);
+
+}  // namespace svbrdf
