@@ -1,0 +1,52 @@
+// Non-linear least-squares fits of one reflectance model to a set of BRDF
+// samples (Levenberg–Marquardt in Ceres, automatic differentiation through
+// the templated models of lib/brdf, box bounds from ModelSpec::Params()).
+// Ceres is used only inside this module.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "brdf/model.h"
+#include "gather/samples.h"
+
+namespace svbrdf {
+
+struct FitOptions {
+  int max_iterations = 60;
+  double function_tolerance = 1e-7;
+  // Robust loss: 0 = plain squared error; > 0 = Cauchy loss with this scale
+  // (in residual units) against outliers (misregistration, interreflection).
+  double robust_scale = 0.0;
+  // Fits use at most this many samples (a deterministic random subset) —
+  // basis materials have few parameters, so more samples add time, not accuracy.
+  int64_t max_samples = 40000;
+  int threads = 0;  // 0 = all cores
+  uint64_t seed = 1;
+  void Check() const;  // throws Error for out-of-range values
+};
+
+struct FitResult {
+  std::vector<double> params;
+  double cost = 0;          // final mean squared residual over the fitted samples (per channel)
+  int iterations = 0;
+  bool converged = false;   // Ceres reported CONVERGENCE
+  std::string message;      // Ceres's termination message
+};
+
+// Fits `spec` to the samples whose indices are `ids` (all samples when empty).
+// Starts from `initial` (spec.InitialParams() when empty), clamped into bounds.
+// Several starts are tried for models with lobes (the fit is not convex);
+// the best is returned.
+FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::vector<int64_t>& ids,
+                   const FitOptions& options, const std::vector<double>& initial = {});
+
+// Per-channel squared residual of a model over samples, summed (for
+// assignment and model selection). Returns the sum and writes the count.
+double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& samples,
+                          const std::vector<int64_t>& ids, int64_t* count = nullptr);
+
+// Model prediction for one sample (f * geom per channel).
+Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& samples, int64_t s);
+
+}  // namespace svbrdf
