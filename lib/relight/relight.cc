@@ -1,0 +1,138 @@
+#include "relight/relight.h"
+
+#include <filesystem>
+#include <random>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "core/rng.h"
+
+namespace svbrdf {
+
+namespace fs = std::filesystem;
+
+void RelightOptions::Check() const {
+  if (samples_per_pixel < 1 || samples_per_pixel > 16)
+    throw Error(Msg("relight: --spp must be in [1, 16], got ", samples_per_pixel));
+}
+
+namespace {
+
+// Per-triangle tangent dP/du (zero when the mesh has no UVs), so anisotropic
+// models are oriented along the texture's u axis as in the reconstruction.
+std::vector<Vec3> FaceTangents(const Mesh& mesh) {
+  std::vector<Vec3> tangents(mesh.faces.size(), Vec3::Zero());
+  if (!mesh.HasUVs()) return tangents;
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const Vec3i& i = mesh.faces[f];
+    const Vec3i& j = mesh.face_uvs[f];
+    const Vec3 e1 = mesh.positions[i[1]] - mesh.positions[i[0]], e2 = mesh.positions[i[2]] - mesh.positions[i[0]];
+    const Vec2 d1 = mesh.texcoords[j[1]] - mesh.texcoords[j[0]], d2 = mesh.texcoords[j[2]] - mesh.texcoords[j[0]];
+    const double det = d1.x() * d2.y() - d2.x() * d1.y();
+    if (std::abs(det) > 1e-20) tangents[f] = (e1 * d2.y() - e2 * d1.y()) / det;
+  }
+  return tangents;
+}
+
+}  // namespace
+
+RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene, size_t index,
+                        const RelightOptions& options) {
+  const ImageEntry& entry = scene.images.at(index);
+  const Camera& cam = scene.CameraById(entry.camera);
+  const Light& light = scene.LightById(entry.light);
+  const Rigid3 world_from_cam = entry.cam_from_world.Inverse();
+  const Vec3 eye = world_from_cam.translation;
+  const std::vector<Vec3> tangents = FaceTangents(tracer.mesh());
+  const int n = options.samples_per_pixel;
+  const double scene_scale = 1e-4;  // shadow-ray offset; meshes are in metres, objects ~0.1-10 m
+
+  RenderedView out;
+  out.color = Image(cam.width, cam.height, 3);
+  out.mask = Image(cam.width, cam.height, 1);
+
+  // Radiance arriving at the camera along a pixel-coordinate ray (0 on a miss).
+  auto shade = [&](double px, double py, bool* hit_out) -> Rgb {
+    const Vec3 dir = world_from_cam.rotation * cam.Unproject(Vec2(px, py));
+    Hit hit;
+    if (!tracer.Intersect(eye, dir, &hit)) {
+      *hit_out = false;
+      return Rgb::Zero();
+    }
+    *hit_out = true;
+    const Vec3 x = tracer.Position(hit);
+    const Vec2 uv = tracer.TexCoord(hit);
+    const Vec3 n_shade = shader.Normal(uv, tracer.ShadingNormal(hit));
+    const Frame frame = Frame::FromNormalTangent(n_shade, tangents[hit.prim]);
+    const Vec3 wo = (eye - x).normalized();
+    const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
+    const double cos_i = n_shade.dot(ls.wi);
+    if (cos_i <= 0 || (ls.normal_irradiance <= 0).all()) return Rgb::Zero();
+    // Offset along the geometric normal on the side the light is on.
+    const Vec3 ng = hit.geometric_normal.dot(ls.wi) >= 0 ? hit.geometric_normal : Vec3(-hit.geometric_normal);
+    const Vec3 origin = x + ng * scene_scale;
+    if (tracer.Occluded(origin, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * scene_scale))
+      return Rgb::Zero();
+    return shader.Eval(uv, frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
+  };
+
+  Progress progress(Msg("render ", entry.file), cam.height, options.progress);
+  ParallelFor(cam.height, options.threads, [&](long y) {
+    Rng rng(StreamSeed(options.seed, index, y));
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    for (int x = 0; x < cam.width; ++x) {
+      bool centre_hit = false;
+      Rgb sum = Rgb::Zero();
+      if (n == 1) {
+        sum = shade(x + 0.5, y + 0.5, &centre_hit);
+      } else {
+        shade(x + 0.5, y + 0.5, &centre_hit);  // mask from the pixel centre
+        for (int sy = 0; sy < n; ++sy)
+          for (int sx = 0; sx < n; ++sx) {
+            bool h;
+            sum += shade(x + (sx + u01(rng)) / n, y + (sy + u01(rng)) / n, &h);
+          }
+        sum /= double(n * n);
+      }
+      for (int c = 0; c < 3; ++c) out.color.at(x, int(y), c) = float(entry.exposure * sum[c]);
+      out.mask.at(x, int(y), 0) = centre_hit ? 1.0f : 0.0f;
+    }
+    progress.Tick();
+  });
+  progress.Finish();
+  return out;
+}
+
+void WriteRendered(const std::string& path, const Image& color, ColorSpace integer_space) {
+  std::string ext = fs::path(path).extension().string();
+  for (auto& ch : ext) ch = char(std::tolower(ch));
+  PixelFormat format = PixelFormat::kFloat;
+  if (ext == ".png" || ext == ".tif" || ext == ".tiff") format = PixelFormat::kUInt16;
+  if (ext == ".jpg" || ext == ".jpeg") format = PixelFormat::kUInt8;
+  WriteImage(path, color, format, format == PixelFormat::kFloat ? ColorSpace::kLinear : integer_space);
+}
+
+int RelightScene(const Material& material, const Scene& scene, const std::string& out_dir,
+                 const RelightOptions& options) {
+  options.Check();
+  RayTracer tracer(material.mesh);
+  MaterialShader shader(material);
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    const ImageEntry& entry = scene.images[i];
+    RenderedView view = RenderView(tracer, shader, scene, i, options);
+    const fs::path file = fs::path(out_dir) / entry.file;
+    fs::create_directories(file.parent_path());
+    WriteRendered(file.string(), view.color, scene.images_color_space);
+    fs::path mask = entry.mask.empty() ? fs::path(file).replace_extension(".mask.png") : fs::path(out_dir) / entry.mask;
+    fs::create_directories(mask.parent_path());
+    WriteImage(mask.string(), view.mask, PixelFormat::kUInt8, ColorSpace::kLinear);
+    if (options.png_preview) {
+      WriteImage(fs::path(file).replace_extension(".preview.png").string(), view.color, PixelFormat::kUInt8,
+                 ColorSpace::kSRGB);
+    }
+  }
+  return static_cast<int>(scene.images.size());
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,47 @@
+// The relighting renderer used for validation and for synthetic captures:
+// direct illumination from one light per image (point, camera-frame flash,
+// directional, spot, goniometric) with hard shadows, per-texel SVBRDF from a
+// material folder, exposure, stratified supersampling; multithreaded over rows.
+//
+// Pixel value = exposure * radiance, radiance = f(wi, wo) * E_n * <n|wi>, where
+// E_n is the light's irradiance on a surface facing it (lib/light). No
+// interreflection (direct light only), as the reconstruction assumes.
+#pragma once
+#include <string>
+
+#include "io/material.h"
+#include "io/scene.h"
+#include "raytrace/raytracer.h"
+#include "relight/shader.h"
+
+namespace svbrdf {
+
+struct RelightOptions {
+  int samples_per_pixel = 1;  // 1 = the pixel centre; n>1: n x n stratified jittered samples per pixel
+  int threads = 0;            // 0 = all cores
+  uint64_t seed = 1;          // jitter of supersampling
+  bool png_preview = false;   // also write <file>.preview.png (sRGB, 8 bit)
+  bool progress = true;
+  void Check() const;
+};
+
+struct RenderedView {
+  Image color;  // 3 channels, linear, exposure applied
+  Image mask;   // 1 channel, 1 where the pixel centre sees the object
+};
+
+// Renders image entry `index` of `scene` (its camera, pose, light, exposure).
+RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene, size_t index,
+                        const RelightOptions& options);
+
+// The relighting contract: renders every image entry into out_dir/<entry.file>
+// (format from its extension; integer formats encoded per the scene's
+// images_color_space) and its mask into out_dir/<entry.mask> (or
+// <file stem>.mask.png when the entry has none). Returns the number of images.
+int RelightScene(const Material& material, const Scene& scene, const std::string& out_dir,
+                 const RelightOptions& options);
+
+// Writes a rendered colour image with the pixel format its extension implies.
+void WriteRendered(const std::string& path, const Image& color, ColorSpace integer_space);
+
+}  // namespace svbrdf

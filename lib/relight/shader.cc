@@ -1,0 +1,48 @@
+#include "relight/shader.h"
+
+#include <cmath>
+
+#include "atlas/atlas.h"
+
+namespace svbrdf {
+
+namespace {
+
+// Bilinear lookup of channel c of a texture map at uv, clamped at the border.
+Rgb SampleMap(const Image& map, const Vec2& uv) {
+  const Vec2 p = UvToTexel(uv, map.width, map.height);
+  Rgb out;
+  for (int c = 0; c < 3; ++c) out[c] = map.Bilinear(p.x(), p.y(), std::min(c, map.channels - 1));
+  return out;
+}
+
+}  // namespace
+
+MaterialShader::MaterialShader(const Material& material) : material_(material) {}
+
+void MaterialShader::Weights(const Vec2& uv, std::vector<Rgb>* w) const {
+  w->resize(material_.basis.size());
+  for (size_t k = 0; k < material_.basis.size(); ++k) (*w)[k] = SampleMap(material_.weights[k], uv);
+}
+
+Vec3 MaterialShader::Normal(const Vec2& uv, const Vec3& smooth_normal) const {
+  if (material_.normal_map.width == 0) return smooth_normal;
+  const Rgb n = SampleMap(material_.normal_map, uv);
+  const Vec3 v(n[0], n[1], n[2]);
+  return v.squaredNorm() > 1e-12 ? Vec3(v.normalized()) : smooth_normal;
+}
+
+Rgb MaterialShader::Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const {
+  const Vec3 wi = frame.ToLocal(wi_world), wo = frame.ToLocal(wo_world);
+  if (wi.z() <= 0 || wo.z() <= 0) return Rgb::Zero();
+  Rgb f = Rgb::Zero();
+  for (size_t k = 0; k < material_.basis.size(); ++k) {
+    const Rgb w = SampleMap(material_.weights[k], uv);
+    if ((w <= 0).all()) continue;
+    const BasisMaterial& b = material_.basis[k];
+    f += w * EvalModelD(b.spec, b.params.data(), wi, wo);
+  }
+  return f;
+}
+
+}  // namespace svbrdf

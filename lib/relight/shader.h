@@ -1,0 +1,26 @@
+// Per-texel SVBRDF lookup for rendering: the BRDF at a surface point is the
+// per-channel weighted sum of the basis materials, with weights bilinearly
+// interpolated from the material's weight maps at the hit's texture coordinate.
+#pragma once
+#include "io/material.h"
+
+namespace svbrdf {
+
+class MaterialShader {
+ public:
+  explicit MaterialShader(const Material& material);
+
+  // Per-channel mixing weights of every basis material at uv (K x 3, row-major into `w`).
+  void Weights(const Vec2& uv, std::vector<Rgb>* w) const;
+  // World-space shading normal: the normal map if present, else `smooth_normal`.
+  Vec3 Normal(const Vec2& uv, const Vec3& smooth_normal) const;
+  // BRDF value (1/sr per channel) for world directions, given the shading frame.
+  Rgb Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const;
+
+  const Material& material() const { return material_; }
+
+ private:
+  const Material& material_;
+};
+
+}  // namespace svbrdf

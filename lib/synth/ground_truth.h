@@ -1,0 +1,35 @@
+// Ground-truth SVBRDFs for synthetic captures: K basis materials of any model
+// of lib/brdf, painted onto the surface as soft-edged regions (a smooth
+// Voronoi partition of the surface around K well-spread seeds), optionally
+// with per-texel variation of the weights and a bump normal map.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "io/material.h"
+
+namespace svbrdf {
+
+struct GroundTruthOptions {
+  int num_materials = 3;
+  std::vector<std::string> models;  // labels per material; empty = the built-in library in order
+  int texture_size = 128;
+  double blend = 0.02;              // width of the soft region borders (metres)
+  double variation = 0.0;           // amplitude of smooth per-texel weight variation (0.1 = +-10 %)
+  double bump = 0.0;                // normal-map bump slope (0 = no normal map)
+  uint64_t seed = 1;
+  void Check() const;
+};
+
+// The i-th built-in basis material with the given model label (or its own
+// default model when label is empty): parameters set by name.
+BasisMaterial LibraryMaterial(int i, const std::string& label = "");
+
+// Sets a parameter by its name; throws Error listing the valid names.
+void SetParam(BasisMaterial* b, const std::string& name, double value);
+double GetParam(const BasisMaterial& b, const std::string& name);
+
+// Builds the material folder contents for `mesh` (which must have UVs).
+Material MakeGroundTruth(const Mesh& mesh, const GroundTruthOptions& options);
+
+}  // namespace svbrdf

@@ -1,0 +1,19 @@
+// Procedural test objects with a texture atlas (UVs in [0,1]^2, seams carry
+// separate texture coordinates). Sizes are in metres, centred at the origin.
+#pragma once
+#include <string>
+
+#include "io/mesh.h"
+
+namespace svbrdf {
+
+Mesh MakeSphere(double radius, int rings, int segments);                        // lat-long UVs
+Mesh MakeTorus(double major_radius, double minor_radius, int rings, int segments);  // (u, v) angles
+Mesh MakeBlob(double radius, double bump, int rings, int segments);             // bumpy sphere, lat-long UVs
+Mesh MakeBevelledCube(double half_size, double bevel, int cells);               // six faces in a 3x2 atlas
+
+// Builds the named shape ("sphere", "torus", "blob", "cube") at a resolution
+// suited to `detail` (number of segments around); throws Error for unknown names.
+Mesh MakeShape(const std::string& name, int detail);
+
+}  // namespace svbrdf
