@@ -1,0 +1,180 @@
+// Texel atlas: coverage, geometry at texel centres, dilation and trivial UVs.
+#include "atlas/atlas.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+
+#include "core/error.h"
+
+namespace svbrdf {
+namespace {
+
+Vec2 TexelUv(int x, int y, int w, int h) { return Vec2((x + 0.5) / w, 1 - (y + 0.5) / h); }
+
+// Planar patch P(u, v) = origin + u * du + v * dv, UVs spanning [0,1]^2.
+Mesh Patch(const Vec3& origin, const Vec3& du, const Vec3& dv) {
+  Mesh m;
+  m.positions = {origin, origin + du, origin + du + dv, origin + dv};
+  m.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3)};
+  m.texcoords = {Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
+  m.face_uvs = m.faces;
+  return m;
+}
+
+// A bumpy n x n height field: many triangles of varied shape, no UVs.
+Mesh HeightField(int n) {
+  Mesh m;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> z(-0.3, 0.3), jitter(-0.3, 0.3);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) m.positions.emplace_back(j + jitter(rng), i + jitter(rng), z(rng));
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int a = i * (n + 1) + j, b = a + 1, c = a + n + 1, d = c + 1;
+      m.faces.emplace_back(a, b, d);
+      m.faces.emplace_back(a, d, c);
+    }
+  return m;
+}
+
+TEST(Atlas, FullQuadCoversAllTexelsAtBilinearPositions) {
+  const Vec3 origin(1, 2, 3), du(2, 0, 0), dv(0, 1, 0.5);
+  const int w = 40, h = 30;
+  const Atlas atlas = BuildAtlas(Patch(origin, du, dv), w, h, 1);
+  ASSERT_EQ(int(atlas.texels.size()), w * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      ASSERT_GE(atlas.At(x, y), 0);
+      const Texel& t = atlas.texels[atlas.At(x, y)];
+      EXPECT_EQ(t.x, x);
+      EXPECT_EQ(t.y, y);
+      EXPECT_TRUE(t.interior);
+      const Vec2 uv = TexelUv(x, y, w, h);
+      EXPECT_NEAR((t.position - (origin + uv.x() * du + uv.y() * dv)).norm(), 0, 1e-12);
+      EXPECT_NEAR((t.normal - du.cross(dv).normalized()).norm(), 0, 1e-12);  // no normals: face normal
+    }
+}
+
+TEST(Atlas, HalfSquareTriangleCoversHalfTheTexels) {
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  m.faces = {Vec3i(0, 1, 2)};
+  m.texcoords = {Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)};
+  m.face_uvs = m.faces;
+  const int n = 64;
+  const Atlas atlas = BuildAtlas(m, n, n, 0);
+  EXPECT_NEAR(double(atlas.texels.size()) / (n * n), 0.5, 1.0 / n);
+  for (const Texel& t : atlas.texels) {
+    const Vec2 uv = TexelUv(t.x, t.y, n, n);
+    EXPECT_LE(uv.x() + uv.y(), 1 + 1e-9);  // only centres inside the triangle
+    EXPECT_TRUE(t.interior);
+  }
+}
+
+TEST(Atlas, DilationAddsBorderTexelsClampedIntoTheTriangle) {
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  m.faces = {Vec3i(0, 1, 2)};
+  m.texcoords = {Vec2(0.25, 0.25), Vec2(0.75, 0.25), Vec2(0.25, 0.75)};
+  m.face_uvs = m.faces;
+  const int n = 32, dilate = 2;
+  const Atlas plain = BuildAtlas(m, n, n, 0);
+  const Atlas atlas = BuildAtlas(m, n, n, dilate);
+  ASSERT_GT(atlas.texels.size(), plain.texels.size());
+  int border = 0;
+  for (const Texel& t : atlas.texels) {
+    ASSERT_TRUE(t.x >= 0 && t.x < n && t.y >= 0 && t.y < n);
+    EXPECT_EQ(&t, &atlas.texels[atlas.At(t.x, t.y)]);
+    EXPECT_EQ(t.interior, plain.At(t.x, t.y) >= 0);
+    // Clamped barycentrics keep the surface point on the triangle.
+    EXPECT_TRUE(t.b1 >= 0 && t.b2 >= 0 && t.b1 + t.b2 <= 1 + 1e-12);
+    EXPECT_NEAR(t.position.z(), 0, 1e-12);
+    if (t.interior) continue;
+    ++border;
+    // A border texel is at most `dilate` texels (Chebyshev) from a covered one.
+    bool near_interior = false;
+    for (const Texel& s : plain.texels)
+      near_interior |= std::max(std::abs(s.x - t.x), std::abs(s.y - t.y)) <= dilate;
+    EXPECT_TRUE(near_interior) << t.x << "," << t.y;
+  }
+  EXPECT_EQ(border, int(atlas.texels.size() - plain.texels.size()));
+}
+
+TEST(Atlas, TangentIsDpDu) {
+  // Skewed, tilted patch: dP/du = du, which is not orthogonal to dv.
+  const Vec3 du(1, 0.5, 0.2), dv(0.3, 1, -0.4);
+  const Mesh m = Patch(Vec3::Zero(), du, dv);
+  const Atlas atlas = BuildAtlas(m, 8, 8);
+  for (const Texel& t : atlas.texels) {
+    EXPECT_NEAR((t.tangent - du.normalized()).norm(), 0, 1e-12);
+    EXPECT_NEAR(t.tangent.dot(t.normal), 0, 1e-12);
+  }
+  // With smooth normals tilted off the face, the tangent is dP/du projected.
+  Mesh tilted = m;
+  const Vec3 n = (du.cross(dv).normalized() + Vec3(0.3, 0, 0)).normalized();
+  tilted.normals.assign(4, n);
+  for (const Texel& t : BuildAtlas(tilted, 8, 8).texels) {
+    EXPECT_NEAR((t.normal - n).norm(), 0, 1e-12);
+    EXPECT_NEAR((t.tangent - (du - n * n.dot(du)).normalized()).norm(), 0, 1e-12);
+  }
+}
+
+TEST(Atlas, RequiresUvs) {
+  Mesh m = Patch(Vec3::Zero(), Vec3(1, 0, 0), Vec3(0, 1, 0));
+  m.face_uvs.clear();
+  EXPECT_THROW(BuildAtlas(m, 8, 8), Error);
+}
+
+TEST(Atlas, TrivialUvsGiveEveryTriangleItsOwnTexels) {
+  const Mesh mesh = HeightField(12);  // 288 triangles
+  const int res = 512;
+  const Mesh uv = MakeTrivialAtlasUVs(mesh, res);
+  ASSERT_EQ(uv.face_uvs.size(), mesh.faces.size());
+  for (const Vec2& t : uv.texcoords) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1);
+
+  // Interior texels: every triangle has some; with dilation 1, no texel
+  // (interior or gutter) touches another triangle's interior texels.
+  const Atlas atlas = BuildAtlas(uv, res, res, 1);
+  std::set<int> covered;
+  for (const Texel& t : atlas.texels) {
+    if (t.interior) covered.insert(t.prim);
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = t.x + dx, y = t.y + dy;
+        if (x < 0 || y < 0 || x >= res || y >= res || atlas.At(x, y) < 0) continue;
+        const Texel& s = atlas.texels[atlas.At(x, y)];
+        if (s.interior) {
+          ASSERT_EQ(s.prim, t.prim) << "texel " << t.x << "," << t.y;
+        }
+      }
+  }
+  EXPECT_EQ(covered.size(), mesh.faces.size());
+}
+
+TEST(Atlas, TrivialUvsPreserveTriangleShape) {
+  const Mesh mesh = HeightField(3);
+  const Mesh uv = MakeTrivialAtlasUVs(mesh, 256);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    double ratio[3];
+    for (int k = 0; k < 3; ++k) {
+      const int k1 = (k + 1) % 3;
+      ratio[k] = (uv.texcoords[uv.face_uvs[f][k1]] - uv.texcoords[uv.face_uvs[f][k]]).norm() /
+                 (mesh.positions[mesh.faces[f][k1]] - mesh.positions[mesh.faces[f][k]]).norm();
+    }
+    EXPECT_NEAR(ratio[1] / ratio[0], 1, 1e-9);  // similarity: one scale for all edges
+    EXPECT_NEAR(ratio[2] / ratio[0], 1, 1e-9);
+    // Counter-clockwise in UV, like the 3D winding seen from the normal side.
+    const Vec2 a = uv.texcoords[uv.face_uvs[f][0]];
+    const Vec2 e1 = uv.texcoords[uv.face_uvs[f][1]] - a, e2 = uv.texcoords[uv.face_uvs[f][2]] - a;
+    EXPECT_GT(e1.x() * e2.y() - e1.y() * e2.x(), 0);
+  }
+}
+
+TEST(Atlas, TrivialUvsRejectTooSmallResolution) {
+  EXPECT_THROW(MakeTrivialAtlasUVs(HeightField(12), 40), Error);
+}
+
+}  // namespace
+}  // namespace svbrdf
