@@ -67,4 +67,7 @@ void EvalModel(const ModelSpec& spec, const T* p, const Vec3T<T>& wi, const Vec3
 // double instantiation, compiled once (model.cc).
 Rgb EvalModelD(const ModelSpec& spec, const double* p, const Vec3& wi, const Vec3& wo);
 
+// Every distinct model, one per label accepted by FromLabel, in a fixed order.
+std::vector<ModelSpec> AllModelSpecs();
+
 }  // namespace svbrdf

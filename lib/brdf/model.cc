@@ -1,0 +1,140 @@
+#include "brdf/model.h"
+
+#include "brdf/model_eval.h"
+#include "core/error.h"
+
+namespace svbrdf {
+namespace {
+
+const char* FamilyName(Family f) {
+  switch (f) {
+    case Family::kLambert: return "lambert";
+    case Family::kOrenNayar: return "oren_nayar";
+    case Family::kPhong: return "phong";
+    case Family::kBlinnPhong: return "blinn_phong";
+    case Family::kCosineLobe: return "cosine_lobe";
+    case Family::kLafortune: return "lafortune";
+    case Family::kCookTorrance: return "cook_torrance";
+  }
+  return "?";
+}
+
+const char* DistributionName(Distribution d) {
+  switch (d) {
+    case Distribution::kBeckmann: return "beckmann";
+    case Distribution::kBlinnGaussian: return "blinn";
+    case Distribution::kGGX: return "ggx";
+  }
+  return "?";
+}
+
+// Visitor for brdf::VisitParams that records the ParamInfo list.
+struct ParamCollector {
+  std::vector<ParamInfo> params;
+  std::string prefix;
+  void Lobe(int i) { prefix = Msg("lobe", i, "."); }
+  void Scalar(double&, const char* name, const char* desc, double lo, double hi, double init) {
+    params.push_back({prefix + name, desc, lo, hi, init});
+  }
+  void Rgb(brdf::RgbT<double>&, const char* name, const char* desc, double lo, double hi, double init) {
+    for (const char* c : {"_r", "_g", "_b"}) params.push_back({prefix + name + c, Msg(desc, " (", c + 1, ")"), lo, hi, init});
+  }
+};
+
+// Counts without building strings: NumParams is called per pixel by fits.
+struct ParamCounter {
+  int n = 0;
+  void Lobe(int) {}
+  void Scalar(double&, const char*, const char*, double, double, double) { n += 1; }
+  void Rgb(brdf::RgbT<double>&, const char*, const char*, double, double, double) { n += 3; }
+};
+
+}  // namespace
+
+std::string ModelSpec::Name() const { return FamilyName(family); }
+
+std::string ModelSpec::Label() const {
+  std::string label = Name();
+  if (family == Family::kLafortune) {
+    label += Msg("-", lobes);
+    if (anisotropic) label += "-aniso";
+  } else if (family == Family::kCookTorrance) {
+    label += Msg("-", DistributionName(distribution));
+    if (shadowing == Shadowing::kSmith) label += "-smith";
+    if (fresnel == FresnelMode::kSchlick) label += "-schlick";
+    if (fresnel == FresnelMode::kNone) label += "-nofresnel";
+  }
+  return label;
+}
+
+std::vector<ParamInfo> ModelSpec::Params() const {
+  ParamCollector collector;
+  brdf::WithModel<double>(*this, [&](auto& model) { brdf::VisitParams(collector, *this, model); });
+  return collector.params;
+}
+
+int ModelSpec::NumParams() const {
+  ParamCounter counter;
+  brdf::WithModel<double>(*this, [&](auto& model) { brdf::VisitParams(counter, *this, model); });
+  return counter.n;
+}
+
+std::vector<double> ModelSpec::InitialParams() const {
+  std::vector<double> p;
+  for (const ParamInfo& info : Params()) p.push_back(info.initial);
+  return p;
+}
+
+std::vector<ModelSpec> AllModelSpecs() {
+  std::vector<ModelSpec> all;
+  for (Family f : {Family::kLambert, Family::kOrenNayar, Family::kPhong, Family::kBlinnPhong, Family::kCosineLobe}) {
+    ModelSpec s;
+    s.family = f;
+    all.push_back(s);
+  }
+  for (bool aniso : {false, true}) {
+    for (int lobes = 1; lobes <= 3; ++lobes) {
+      ModelSpec s;
+      s.family = Family::kLafortune;
+      s.lobes = lobes;
+      s.anisotropic = aniso;
+      all.push_back(s);
+    }
+  }
+  for (Distribution d : {Distribution::kBeckmann, Distribution::kGGX, Distribution::kBlinnGaussian}) {
+    for (Shadowing g : {Shadowing::kVCavity, Shadowing::kSmith}) {
+      for (FresnelMode fr : {FresnelMode::kExact, FresnelMode::kSchlick, FresnelMode::kNone}) {
+        ModelSpec s;
+        s.family = Family::kCookTorrance;
+        s.distribution = d;
+        s.shadowing = g;
+        s.fresnel = fr;
+        all.push_back(s);
+      }
+    }
+  }
+  return all;
+}
+
+// Parsing by matching against the enumerated labels keeps FromLabel the exact
+// inverse of Label() without a second grammar.
+ModelSpec ModelSpec::FromLabel(const std::string& label) {
+  const std::vector<ModelSpec> all = AllModelSpecs();
+  for (const ModelSpec& s : all)
+    if (s.Label() == label) return s;
+  std::string valid;
+  for (const ModelSpec& s : all) valid += (valid.empty() ? "" : ", ") + s.Label();
+  throw Error(Msg("unknown reflectance model '", label, "'; valid models: ", valid));
+}
+
+// Options that do not apply to a family (e.g. lobes for Cook-Torrance) are
+// ignored, which is exactly what comparing labels does.
+bool ModelSpec::operator==(const ModelSpec& o) const { return Label() == o.Label(); }
+
+Rgb EvalModelD(const ModelSpec& spec, const double* p, const Vec3& wi, const Vec3& wo) {
+  Rgb rgb;
+  EvalModel<double>(spec, p, wi, wo, rgb.data());
+  return rgb;
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,487 @@
+// Physical properties (reciprocity, positivity, energy conservation), special
+// cases, optics and autodiff of the reflectance models in lib/brdf.
+#include <ceres/jet.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "brdf/fresnel.h"
+#include "brdf/model.h"
+#include "brdf/model_eval.h"
+#include "brdf/optics.h"
+#include "core/error.h"
+#include "core/rng.h"
+
+namespace svbrdf {
+namespace {
+
+using brdf::Dot;
+
+Vec3 FromAngles(double theta, double phi) {
+  return Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+}
+
+// Uniform on the upper hemisphere, kept slightly above the horizon where
+// 1/<N|L> style terms would make relative comparisons meaningless.
+Vec3 RandomDir(Rng& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double z = 0.01 + 0.99 * u(rng);
+  const double phi = 2 * kPi * u(rng);
+  const double r = std::sqrt(1 - z * z);
+  return Vec3(r * std::cos(phi), r * std::sin(phi), z);
+}
+
+// Uniform within each parameter's documented range; log-uniform for wide
+// positive ranges (exponents, roughness) so both ends get exercised.
+std::vector<double> RandomParams(const ModelSpec& spec, Rng& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<double> p;
+  for (const ParamInfo& info : spec.Params()) {
+    const double t = u(rng);
+    if (info.lower > 0 && info.upper / info.lower > 50)
+      p.push_back(info.lower * std::pow(info.upper / info.lower, t));
+    else
+      p.push_back(info.lower + t * (info.upper - info.lower));
+  }
+  return p;
+}
+
+int ParamIndex(const ModelSpec& spec, const std::string& name) {
+  const std::vector<ParamInfo> params = spec.Params();
+  for (int i = 0; i < static_cast<int>(params.size()); ++i)
+    if (params[i].name == name) return i;
+  ADD_FAILURE() << "no parameter " << name << " in " << spec.Label();
+  return 0;
+}
+
+// Restricts random parameters to where the model conserves energy (rd + rs
+// <= 1 per channel) and where the quadrature below resolves the lobe
+// (exponent <= 1000, roughness >= 0.05).
+void MakeEnergyConserving(const ModelSpec& spec, std::vector<double>* p) {
+  const std::vector<ParamInfo> params = spec.Params();
+  for (int i = 0; i < static_cast<int>(params.size()); ++i) {
+    if (params[i].name == "exponent") (*p)[i] = std::min((*p)[i], 1000.0);
+    if (params[i].name == "roughness") (*p)[i] = std::max((*p)[i], 0.05);
+  }
+  if (spec.family == Family::kLambert || spec.family == Family::kOrenNayar) return;
+  for (const char* c : {"_r", "_g", "_b"}) {
+    double& rd = (*p)[ParamIndex(spec, std::string("rd") + c)];
+    double& rs = (*p)[ParamIndex(spec, std::string("rs") + c)];
+    const double sum = rd + rs;
+    if (sum > 1) rd /= sum, rs /= sum;
+  }
+}
+
+// Directional albedo int f(wi, wo) cos(theta_o) dwo, midpoint rule on a
+// 256 x 512 grid in (theta, phi): uniform in angle, so narrow lobes near the
+// normal get as many cells as anywhere else.
+Rgb Albedo(const ModelSpec& spec, const std::vector<double>& p, const Vec3& wi) {
+  const int nt = 256, np = 512;
+  const double dt = 0.5 * kPi / nt, dp = 2 * kPi / np;
+  Rgb sum = Rgb::Zero();
+  for (int i = 0; i < nt; ++i) {
+    const double theta = (i + 0.5) * dt;
+    const double w = std::cos(theta) * std::sin(theta) * dt * dp;
+    for (int j = 0; j < np; ++j) sum += w * EvalModelD(spec, p.data(), wi, FromAngles(theta, (j + 0.5) * dp));
+  }
+  return sum;
+}
+
+bool IsReciprocal(const ModelSpec& spec) {
+  return spec.family != Family::kPhong && spec.family != Family::kBlinnPhong;
+}
+
+bool ConservesEnergy(const ModelSpec& spec) {
+  return spec.family != Family::kPhong && spec.family != Family::kBlinnPhong && spec.family != Family::kLafortune;
+}
+
+// ---------------------------------------------------------------- ModelSpec
+
+TEST(ModelSpec, LabelsRoundTripAndAreUnique) {
+  std::set<std::string> labels;
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    EXPECT_TRUE(labels.insert(spec.Label()).second) << spec.Label();
+    EXPECT_EQ(ModelSpec::FromLabel(spec.Label()), spec);
+    EXPECT_EQ(ModelSpec::FromLabel(spec.Label()).Label(), spec.Label());
+  }
+  for (const char* l : {"lambert", "oren_nayar", "phong", "blinn_phong", "cosine_lobe", "lafortune-1", "lafortune-2",
+                        "lafortune-3", "lafortune-1-aniso", "lafortune-2-aniso", "lafortune-3-aniso",
+                        "cook_torrance-beckmann", "cook_torrance-ggx", "cook_torrance-blinn",
+                        "cook_torrance-ggx-smith-schlick", "cook_torrance-beckmann-nofresnel"})
+    EXPECT_EQ(labels.count(l), 1u) << l;
+  EXPECT_EQ(labels.size(), 5u + 6u + 18u);
+}
+
+TEST(ModelSpec, NamesAreFamilies) {
+  EXPECT_EQ(ModelSpec::FromLabel("lafortune-2-aniso").Name(), "lafortune");
+  EXPECT_EQ(ModelSpec::FromLabel("cook_torrance-ggx-smith").Name(), "cook_torrance");
+  EXPECT_EQ(ModelSpec::FromLabel("oren_nayar").Name(), "oren_nayar");
+  const ModelSpec s = ModelSpec::FromLabel("cook_torrance-blinn-smith-schlick");
+  EXPECT_EQ(s.distribution, Distribution::kBlinnGaussian);
+  EXPECT_EQ(s.shadowing, Shadowing::kSmith);
+  EXPECT_EQ(s.fresnel, FresnelMode::kSchlick);
+}
+
+TEST(ModelSpec, UnknownLabelThrowsListingValidOnes) {
+  try {
+    ModelSpec::FromLabel("torrance");
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("torrance"), std::string::npos);
+    EXPECT_NE(what.find("lafortune-3-aniso"), std::string::npos);
+    EXPECT_NE(what.find("cook_torrance-ggx-smith"), std::string::npos);
+  }
+}
+
+TEST(ModelSpec, ParamLayouts) {
+  auto names = [](const std::string& label) {
+    std::vector<std::string> n;
+    for (const ParamInfo& i : ModelSpec::FromLabel(label).Params()) n.push_back(i.name);
+    return n;
+  };
+  using V = std::vector<std::string>;
+  EXPECT_EQ(names("lambert"), (V{"rd_r", "rd_g", "rd_b"}));
+  EXPECT_EQ(names("oren_nayar"), (V{"rd_r", "rd_g", "rd_b", "sigma"}));
+  EXPECT_EQ(names("phong"), (V{"rd_r", "rd_g", "rd_b", "rs_r", "rs_g", "rs_b", "exponent"}));
+  EXPECT_EQ(names("cook_torrance-ggx-smith"),
+            (V{"rd_r", "rd_g", "rd_b", "rs_r", "rs_g", "rs_b", "roughness", "ior"}));
+  EXPECT_EQ(names("lafortune-1"),
+            (V{"rd_r", "rd_g", "rd_b", "lobe0.rho_r", "lobe0.rho_g", "lobe0.rho_b", "lobe0.cx", "lobe0.cz", "lobe0.n"}));
+  const V aniso = names("lafortune-2-aniso");
+  ASSERT_EQ(aniso.size(), 3u + 2 * 7u);
+  EXPECT_EQ(aniso[10], "lobe1.rho_r");
+  EXPECT_EQ(aniso[14], "lobe1.cy");
+}
+
+TEST(ModelSpec, ParamInfoIsConsistent) {
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    const std::vector<ParamInfo> params = spec.Params();
+    const std::vector<double> init = spec.InitialParams();
+    ASSERT_EQ(spec.NumParams(), static_cast<int>(params.size())) << spec.Label();
+    ASSERT_EQ(init.size(), params.size());
+    std::set<std::string> names;
+    for (size_t i = 0; i < params.size(); ++i) {
+      EXPECT_TRUE(names.insert(params[i].name).second) << params[i].name;
+      EXPECT_FALSE(params[i].description.empty());
+      EXPECT_LT(params[i].lower, params[i].upper);
+      EXPECT_GE(init[i], params[i].lower) << spec.Label() << " " << params[i].name;
+      EXPECT_LE(init[i], params[i].upper) << spec.Label() << " " << params[i].name;
+    }
+  }
+}
+
+// A colour parameter must act on its own channel only: catches layout slips
+// between the names and the evaluation order.
+TEST(ModelSpec, ColourParamsActOnTheirChannel) {
+  const Vec3 wi = FromAngles(0.5, 0.3), wo = FromAngles(0.45, 0.3 + kPi);  // near mirror: lobes are lit
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    const std::vector<ParamInfo> params = spec.Params();
+    const std::vector<double> p0 = spec.InitialParams();
+    const Rgb f0 = EvalModelD(spec, p0.data(), wi, wo);
+    for (size_t j = 0; j < params.size(); ++j) {
+      const std::string& n = params[j].name;
+      const char last = n.back();
+      if (n.size() < 2 || n[n.size() - 2] != '_') continue;
+      const int channel = last == 'r' ? 0 : last == 'g' ? 1 : 2;
+      std::vector<double> p = p0;
+      p[j] += 0.1;
+      const Rgb d = EvalModelD(spec, p.data(), wi, wo) - f0;
+      for (int c = 0; c < 3; ++c) {
+        if (c == channel)
+          EXPECT_GT(d[c], 0) << spec.Label() << " " << n;
+        else
+          EXPECT_EQ(d[c], 0) << spec.Label() << " " << n;
+      }
+    }
+  }
+}
+
+TEST(EvalModel, ZeroBelowHorizon) {
+  const Vec3 up(0, 0, 1), below = FromAngles(1.7, 0.2);
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    const std::vector<double> p = spec.InitialParams();
+    EXPECT_TRUE((EvalModelD(spec, p.data(), below, up) == 0).all()) << spec.Label();
+    EXPECT_TRUE((EvalModelD(spec, p.data(), up, below) == 0).all()) << spec.Label();
+  }
+}
+
+// ---------------------------------------------------- reciprocity, positivity
+
+TEST(Properties, ReciprocityAndPositivity) {
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    if (!IsReciprocal(spec)) continue;
+    Rng rng(StreamSeed(1, std::hash<std::string>()(spec.Label())));
+    for (int k = 0; k < 1000; ++k) {
+      const std::vector<double> p = RandomParams(spec, rng);
+      const Vec3 a = RandomDir(rng), b = RandomDir(rng);
+      const Rgb fab = EvalModelD(spec, p.data(), a, b), fba = EvalModelD(spec, p.data(), b, a);
+      ASSERT_TRUE(fab.allFinite()) << spec.Label();
+      ASSERT_TRUE((fab >= 0).all()) << spec.Label();
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(fab[c], fba[c], 1e-10 * (std::abs(fab[c]) + 1e-300)) << spec.Label();
+    }
+  }
+}
+
+TEST(Properties, PhongAndBlinnPhongArePositiveButNotReciprocal) {
+  for (const char* label : {"phong", "blinn_phong"}) {
+    const ModelSpec spec = ModelSpec::FromLabel(label);
+    Rng rng(7);
+    int asymmetric = 0;
+    for (int k = 0; k < 1000; ++k) {
+      const std::vector<double> p = RandomParams(spec, rng);
+      const Vec3 a = RandomDir(rng), b = RandomDir(rng);
+      const Rgb fab = EvalModelD(spec, p.data(), a, b), fba = EvalModelD(spec, p.data(), b, a);
+      ASSERT_TRUE(fab.allFinite() && (fab >= 0).all()) << label;
+      if (((fab - fba).abs() > 1e-6 * fab.abs()).any()) ++asymmetric;
+    }
+    EXPECT_GT(asymmetric, 100) << label;
+  }
+  // Explicit pair: the specular term differs by the ratio of the cosines.
+  const ModelSpec phong = ModelSpec::FromLabel("phong");
+  const std::vector<double> p = {0, 0, 0, 1, 1, 1, 10};
+  const Vec3 a = FromAngles(0.2, 0), b = FromAngles(1.2, kPi);
+  const double ratio = EvalModelD(phong, p.data(), a, b)[0] / EvalModelD(phong, p.data(), b, a)[0];
+  EXPECT_NEAR(ratio, b.z() / a.z(), 1e-12);
+}
+
+// ------------------------------------------------------- energy conservation
+
+TEST(Energy, AlbedoAtMostOne) {
+  const double thetas[] = {0.0, 0.5, 1.0, 1.3, 1.5, 1.56};  // up to ~89.4 deg
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    if (!ConservesEnergy(spec)) continue;
+    Rng rng(StreamSeed(2, std::hash<std::string>()(spec.Label())));
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> p = RandomParams(spec, rng);
+      MakeEnergyConserving(spec, &p);
+      for (double theta : thetas) {
+        const Rgb a = Albedo(spec, p, FromAngles(theta, 0.7));
+        EXPECT_LE(a.maxCoeff(), 1 + 2e-3) << spec.Label() << " theta " << theta << " params k=" << k;
+      }
+    }
+  }
+}
+
+// The bound above is tight: these configurations reflect all light.
+TEST(Energy, TightCases) {
+  const Vec3 normal(0, 0, 1);
+  const std::vector<double> white = {1, 1, 1};
+  EXPECT_NEAR(Albedo(ModelSpec::FromLabel("lambert"), white, FromAngles(1.2, 0))[0], 1, 1e-4);
+  EXPECT_NEAR(Albedo(ModelSpec::FromLabel("oren_nayar"), {1, 1, 1, 0.0}, FromAngles(1.2, 0))[0], 1, 1e-4);
+  // Lewis: albedo at normal incidence is exactly rs.
+  EXPECT_NEAR(Albedo(ModelSpec::FromLabel("cosine_lobe"), {0, 0, 0, 1, 1, 1, 500}, normal)[0], 1, 1e-3);
+}
+
+// White furnace: with F = 1 and rs = 1, a smooth normalised microfacet lobe at
+// normal incidence reflects almost everything. What is lost is shadowing and
+// the reflections of steep facets (theta_h > 45 deg) sent below the horizon,
+// about m^2 / (1 + m^2) for GGX's long tail.
+TEST(Energy, MicrofacetWhiteFurnace) {
+  for (const char* label : {"cook_torrance-ggx-smith-nofresnel", "cook_torrance-ggx-nofresnel",
+                            "cook_torrance-beckmann-smith-nofresnel", "cook_torrance-beckmann-nofresnel",
+                            "cook_torrance-blinn-nofresnel"}) {
+    const std::vector<double> p = {0, 0, 0, 1, 1, 1, 0.05, 1.5};
+    const double albedo = Albedo(ModelSpec::FromLabel(label), p, Vec3(0, 0, 1))[0];
+    EXPECT_LE(albedo, 1 + 1e-3) << label;  // midpoint-rule error on the narrow lobe is ~3e-4
+    EXPECT_GE(albedo, 0.99) << label;
+  }
+}
+
+TEST(Energy, PhongExceedsOneAtGrazingIncidence) {
+  const Vec3 grazing = FromAngles(89.0 * kPi / 180, 0);
+  for (const char* label : {"phong", "blinn_phong"}) {
+    const std::vector<double> p = {0, 0, 0, 0.5, 0.5, 0.5, 10};
+    EXPECT_GT(Albedo(ModelSpec::FromLabel(label), p, grazing)[0], 1.5) << label;
+  }
+}
+
+// ---------------------------------------------------------- special cases
+
+TEST(SpecialCases, LafortuneGeneralisesLewisCosineLobe) {
+  const ModelSpec lewis = ModelSpec::FromLabel("cosine_lobe"), laf = ModelSpec::FromLabel("lafortune-1");
+  Rng rng(3);
+  for (double m : {0.5, 1.0, 7.0, 20.0, 300.0}) {
+    const double c = std::pow((m + 2) / (2 * kPi), 1 / m);
+    const std::vector<double> pl = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, m};
+    const std::vector<double> pf = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, -c, c, m};  // rd, rho, cx = cy, cz, n
+    for (int k = 0; k < 200; ++k) {
+      const Vec3 a = RandomDir(rng), b = RandomDir(rng);
+      const Rgb fl = EvalModelD(lewis, pl.data(), a, b), ff = EvalModelD(laf, pf.data(), a, b);
+      for (int ch = 0; ch < 3; ++ch) ASSERT_NEAR(fl[ch], ff[ch], 1e-12 * fl[ch]) << "m=" << m;
+    }
+  }
+}
+
+TEST(SpecialCases, OrenNayarWithSmoothFacetsIsLambert) {
+  const std::vector<double> on = {0.2, 0.5, 0.8, 0.0}, lam = {0.2, 0.5, 0.8};
+  Rng rng(4);
+  for (int k = 0; k < 100; ++k) {
+    const Vec3 a = RandomDir(rng), b = RandomDir(rng);
+    EXPECT_TRUE(EvalModelD(ModelSpec::FromLabel("oren_nayar"), on.data(), a, b)
+                    .isApprox(EvalModelD(ModelSpec::FromLabel("lambert"), lam.data(), a, b), 1e-14));
+  }
+}
+
+// -------------------------------------------------------------------- optics
+
+TEST(Optics, ReflectionIsHouseholder) {
+  Rng rng(5);
+  for (int k = 0; k < 100; ++k) {
+    const Vec3 n = Vec3::Random().normalized();
+    const Vec3 l = 3.0 * Vec3::Random();
+    const Vec3 r = brdf::Reflect(l, n);
+    EXPECT_NEAR(r.norm(), l.norm(), 1e-12);
+    EXPECT_NEAR(Dot(r, n), Dot(l, n), 1e-12);
+    EXPECT_NEAR((r + l).cross(n).norm(), 0, 1e-12);        // R + L along N
+    EXPECT_NEAR(l.cross(n).dot(r), 0, 1e-12);              // coplanar with L, N
+    EXPECT_TRUE(brdf::Reflect(r, n).isApprox(l, 1e-12));  // involution
+    EXPECT_TRUE(r.isApprox((2 * n * n.transpose() - Mat3::Identity()) * l, 1e-12));
+  }
+  const Vec3 l = RandomDir(rng);
+  EXPECT_TRUE(brdf::ReflectLocal(l).isApprox(brdf::Reflect(l, Vec3(0, 0, 1)), 1e-15));
+}
+
+TEST(Optics, SnellAndTotalInternalReflection) {
+  const Vec3 n(0, 0, 1);
+  for (double n1 : {1.0, 1.33, 1.5, 2.4}) {
+    for (double n2 : {1.0, 1.33, 1.5, 2.4}) {
+      const double critical = n1 > n2 ? std::asin(n2 / n1) : kPi / 2;
+      for (double theta = 0; theta < kPi / 2; theta += 0.01) {
+        const Vec3 l = FromAngles(theta, 0.4);
+        Vec3 t;
+        const bool ok = brdf::Refract(l, n, n1, n2, &t);
+        if (std::abs(theta - critical) < 1e-9) continue;
+        ASSERT_EQ(ok, theta < critical) << n1 << " " << n2 << " " << theta;
+        if (!ok) continue;
+        EXPECT_NEAR(t.norm(), 1, 1e-12);
+        EXPECT_LT(t.z(), 0);  // into the far medium
+        const double sin_t = std::sqrt(t.x() * t.x() + t.y() * t.y());
+        EXPECT_NEAR(n1 * std::sin(theta), n2 * sin_t, 1e-12);
+        EXPECT_NEAR(t.cross(l).dot(n), 0, 1e-12);  // in the plane of incidence
+      }
+    }
+  }
+}
+
+// Unpolarised reflectance from Snell and the s/p amplitudes, the reference
+// for the closed form.
+double FresnelFromAmplitudes(double cos_i, double n_i, double n_t) {
+  const Vec3 l = FromAngles(std::acos(cos_i), 0);
+  Vec3 t;
+  if (!brdf::Refract(l, Vec3(0, 0, 1), n_i, n_t, &t)) return 1;
+  const auto r = brdf::FresnelReflectedAmplitudes(cos_i, -t.z(), n_i, n_t);
+  return 0.5 * (r.r_perp * r.r_perp + r.r_par * r.r_par);
+}
+
+TEST(Fresnel, NormalIncidence) {
+  for (double n : {1.05, 1.33, 1.5, 2.0, 3.0, 0.7}) {
+    const double f0 = std::pow((n - 1) / (n + 1), 2);
+    EXPECT_NEAR(brdf::FresnelDielectric(1.0, n), f0, 1e-14) << n;
+    EXPECT_NEAR(brdf::FresnelSchlick(1.0, n), f0, 1e-14) << n;
+    EXPECT_NEAR(FresnelFromAmplitudes(1.0, 1.0, n), f0, 1e-14) << n;
+  }
+}
+
+TEST(Fresnel, TotalInternalReflectionInsideDenseMedium) {
+  for (double n : {1 / 1.5, 1 / 1.33, 1 / 2.4}) {
+    const double cos_critical = std::sqrt(1 - n * n);
+    for (double c = 0.001; c < cos_critical; c += 0.01) EXPECT_EQ(brdf::FresnelDielectric(c, n), 1.0);
+    EXPECT_LT(brdf::FresnelDielectric(cos_critical + 0.05, n), 1.0);
+  }
+}
+
+TEST(Fresnel, ClosedFormMatchesAmplitudes) {
+  for (double n : {1.05, 1.33, 1.5, 2.4, 3.0, 1 / 1.5, 1 / 1.33}) {
+    for (double c = 0.001; c <= 1.0; c += 0.0049) {
+      EXPECT_NEAR(brdf::FresnelDielectric(c, n), FresnelFromAmplitudes(c, 1.0, n), 1e-12) << "n=" << n << " c=" << c;
+    }
+  }
+}
+
+// The lecture's (c(g+c)+1)^2 in the last denominator does not match the
+// amplitudes, confirming it is a typo for (c(g-c)+1)^2.
+TEST(Fresnel, LectureDenominatorIsATypo) {
+  const double n = 1.5, c = 0.2;
+  const double g = std::sqrt(n * n + c * c - 1);
+  const double lecture =
+      (g - c) * (g - c) / (2 * (g + c) * (g + c)) * (1 + std::pow(c * (g + c) - 1, 2) / std::pow(c * (g + c) + 1, 2));
+  EXPECT_GT(std::abs(lecture - FresnelFromAmplitudes(c, 1.0, n)), 1e-2);
+}
+
+TEST(Fresnel, SchlickCloseToExactNearNormal) {
+  for (double n : {1.33, 1.5, 2.0}) {
+    for (double c = 0.8; c <= 1.0; c += 0.01)
+      EXPECT_NEAR(brdf::FresnelSchlick(c, n), brdf::FresnelDielectric(c, n), 0.01) << n << " " << c;
+    EXPECT_NEAR(brdf::FresnelSchlick(0.0, n), 1.0, 1e-14);  // both reach 1 at grazing
+    EXPECT_NEAR(brdf::FresnelDielectric(0.0, n), 1.0, 1e-14);
+  }
+}
+
+// ------------------------------------------------------------------ autodiff
+
+constexpr int kJetSize = 32;
+using Jet = ceres::Jet<double, kJetSize>;
+
+// Evaluates with Jets seeded on every parameter; returns value and gradients.
+void EvalJet(const ModelSpec& spec, const std::vector<double>& p, const Vec3& wi, const Vec3& wo, Jet out[3]) {
+  std::vector<Jet> pj;
+  for (size_t j = 0; j < p.size(); ++j) pj.emplace_back(p[j], static_cast<int>(j));
+  const Vec3T<Jet> wij(Jet(wi.x()), Jet(wi.y()), Jet(wi.z()));
+  const Vec3T<Jet> woj(Jet(wo.x()), Jet(wo.y()), Jet(wo.z()));
+  EvalModel<Jet>(spec, pj.data(), wij, woj, out);
+}
+
+TEST(Autodiff, MatchesCentralDifferences) {
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    ASSERT_LE(spec.NumParams(), kJetSize);
+    Rng rng(StreamSeed(6, std::hash<std::string>()(spec.Label())));
+    for (int k = 0; k < 40; ++k) {
+      const std::vector<double> p = RandomParams(spec, rng);
+      const Vec3 wi = RandomDir(rng);
+      Vec3 wo = RandomDir(rng);
+      if (k % 2 == 0) {  // near the mirror direction, where the lobes are not negligible
+        do wo = (brdf::ReflectLocal(wi) + 0.15 * Vec3::Random()).normalized();
+        while (wo.z() < 0.02);
+      }
+      Jet f[3];
+      EvalJet(spec, p, wi, wo, f);
+      for (size_t j = 0; j < p.size(); ++j) {
+        const double h = 1e-6 * std::max(std::abs(p[j]), 1e-2);
+        std::vector<double> pp = p, pm = p;
+        pp[j] += h;
+        pm[j] -= h;
+        const Rgb fd = (EvalModelD(spec, pp.data(), wi, wo) - EvalModelD(spec, pm.data(), wi, wo)) / (2 * h);
+        for (int c = 0; c < 3; ++c) {
+          const double ad = f[c].v[j];
+          ASSERT_TRUE(std::isfinite(ad)) << spec.Label();
+          // Relative tolerance plus the rounding error of the difference quotient.
+          const double tol = 1e-5 * std::max(std::abs(ad), std::abs(fd[c])) + 1e-12 * std::abs(f[c].a) / h;
+          EXPECT_NEAR(ad, fd[c], tol) << spec.Label() << " param " << spec.Params()[j].name << " k=" << k;
+        }
+      }
+    }
+  }
+}
+
+// sqrt and pow at 0 have infinite derivatives; the models must not turn them
+// into NaN at the normal, where sin(theta) = 0 and H = N.
+TEST(Autodiff, FiniteAtNormalIncidence) {
+  const Vec3 normal(0, 0, 1);
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    const std::vector<double> p = spec.InitialParams();
+    for (const Vec3& wo : {normal, FromAngles(0.8, 1.0)}) {
+      Jet f[3];
+      EvalJet(spec, p, normal, wo, f);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_TRUE(std::isfinite(f[c].a)) << spec.Label();
+        for (int j = 0; j < spec.NumParams(); ++j) EXPECT_TRUE(std::isfinite(f[c].v[j])) << spec.Label() << " " << j;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace svbrdf
