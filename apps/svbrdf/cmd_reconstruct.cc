@@ -1,0 +1,51 @@
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include "apps/svbrdf/commands.h"
+#include "core/error.h"
+#include "pipeline/reconstruction.h"
+
+namespace svbrdf::cli {
+
+void RegisterReconstruct(CLI::App& app, Runner* run) {
+  auto job = std::make_shared<ReconstructionJob>();
+  auto candidates = std::make_shared<std::string>();
+  CLI::App* c = app.add_subcommand(
+      "reconstruct",
+      "Recover a spatially varying BRDF from a capture (scene.json): per-texel samples, Lensch-style\n"
+      "progressive clustering with Ceres fits, model and cluster count chosen on held-out samples,\n"
+      "NNLS mixing weights. Writes a material folder (material.json, mesh, EXR maps) and OUT/report/.\n"
+      "Example: svbrdf reconstruct capture/scene.json --out material --max-clusters 6");
+  c->add_option("scene", job->scene_path, "capture scene.json")->required();
+  c->add_option("--out", job->out_dir, "output material folder")->required();
+  c->add_option("--texture-size", job->gather.texture_size, "atlas resolution (square)");
+  c->add_option("--model", job->estimate.force_model, "force one model for every basis material (e.g. lafortune-2)");
+  c->add_option("--models", *candidates, "comma-separated candidate models for model selection");
+  c->add_option("--max-clusters", job->estimate.max_clusters, "upper bound on basis materials");
+  c->add_option("--clusters", job->estimate.force_clusters, "force exactly this many basis materials");
+  c->add_option("--min-improvement", job->estimate.min_improvement, "relative held-out error drop needed to keep a split");
+  c->add_option("--robust", job->estimate.fit.robust_scale, "Cauchy loss scale (0 = least squares)");
+  c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
+  c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
+  c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
+  c->add_flag("!--no-report", job->report, "skip pictures and summary");
+  c->callback([job, candidates, run] {
+    *run = [job, candidates] {
+      if (!candidates->empty()) {
+        job->estimate.candidate_models.clear();
+        std::stringstream ss(*candidates);
+        for (std::string m; std::getline(ss, m, ',');) job->estimate.candidate_models.push_back(m);
+      }
+      job->gather.threads = job->estimate.threads;
+      job->estimate.fit.threads = job->estimate.threads;
+      job->estimate.fit.seed = job->estimate.seed;
+      const auto summary = RunReconstruction(*job);
+      std::printf("material: %s/material.json (%d basis materials)\n", job->out_dir.c_str(), int(summary["clusters"]));
+      if (job->report) std::printf("report:   %s/report/ (summary.json, cluster_map.png, *_relit.png)\n", job->out_dir.c_str());
+      return 0;
+    };
+  });
+}
+
+}  // namespace svbrdf::cli

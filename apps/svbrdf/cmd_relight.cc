@@ -1,0 +1,42 @@
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "apps/svbrdf/commands.h"
+#include "io/material.h"
+#include "io/scene.h"
+#include "relight/relight.h"
+
+namespace svbrdf::cli {
+
+void RegisterRelight(CLI::App& app, Runner* run) {
+  struct Args {
+    std::string material, scene, out;
+    RelightOptions options;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand(
+      "relight",
+      "Render every image entry of a scene.json (its camera, pose, light, exposure) with a material folder,\n"
+      "into OUT/<entry file> (+ mask). Example: svbrdf relight material capture/heldout/scene.json --out relit");
+  c->add_option("material", a->material, "material folder (material.json)")->required();
+  c->add_option("scene", a->scene, "scene.json giving views and lights")->required();
+  c->add_option("--out", a->out, "output folder")->required();
+  c->add_option("--spp", a->options.samples_per_pixel, "supersampling: n x n samples per pixel (1 = pixel centre)");
+  c->add_option("--threads", a->options.threads, "worker threads (0 = all cores)");
+  c->add_option("--seed", a->options.seed, "seed of the supersampling jitter");
+  c->add_flag("--preview", a->options.png_preview, "also write sRGB PNG previews");
+  c->callback([a, run] {
+    *run = [a] {
+      const auto t0 = std::chrono::steady_clock::now();
+      const Material material = LoadMaterial(a->material);
+      const Scene scene = LoadScene(a->scene);
+      const int n = RelightScene(material, scene, a->out, a->options);
+      std::printf("relit %d images in %.2f s into %s\n", n,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), a->out.c_str());
+      return 0;
+    };
+  });
+}
+
+}  // namespace svbrdf::cli

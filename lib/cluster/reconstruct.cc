@@ -1,0 +1,510 @@
+#include "cluster/reconstruct.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+
+#include "cluster/nnls.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "core/rng.h"
+
+namespace svbrdf {
+
+void ReconstructOptions::Check() const {
+  fit.Check();
+  if (max_clusters < 1 || max_clusters > 16) throw Error(Msg("reconstruct: --max-clusters must be in [1, 16], got ", max_clusters));
+  if (force_clusters < 0 || force_clusters > 16) throw Error(Msg("reconstruct: --clusters must be in [0, 16], got ", force_clusters));
+  if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) throw Error("reconstruct: holdout fraction must be in (0, 0.9)");
+  if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
+  if (!(parsimony >= 0)) throw Error("reconstruct: parsimony must be >= 0");
+  if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
+  if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");
+  if (candidate_models.empty() && force_model.empty()) throw Error("reconstruct: no candidate models");
+  for (const auto& m : candidate_models) ModelSpec::FromLabel(m);  // throws for unknown labels
+  if (!force_model.empty()) ModelSpec::FromLabel(force_model);
+  ModelSpec::FromLabel(cluster_model);
+}
+
+namespace {
+
+// Everything the clustering works on: samples split into training and
+// held-out sets, per-texel sample counts, the current basis materials, their
+// predictions for every sample, and the texel-to-cluster assignment.
+class Clustering {
+ public:
+  Clustering(const SampleSet& s, const ReconstructOptions& o) : s_(s), o_(o), nt_(s.num_texels) {
+    holdout_.resize(s.size());
+    train_count_.assign(nt_, 0);
+    for (int t = 0; t < nt_; ++t)
+      for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+        holdout_[i] = HashUniform(o.seed, uint64_t(t), uint64_t(s.image[i])) < o.holdout_fraction;
+        train_count_[t] += !holdout_[i];
+      }
+    usable_.resize(nt_);
+    for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_samples;
+    if (std::count(usable_.begin(), usable_.end(), true) == 0)
+      throw Error(Msg("reconstruct: no texel has ", o.min_samples, " or more training samples; more photos or a coarser --texture-size are needed"));
+    assign_.assign(nt_, 0);
+  }
+
+  int K() const { return static_cast<int>(basis_.size()); }
+  std::vector<BasisMaterial>& basis() { return basis_; }
+  std::vector<int>& assign() { return assign_; }
+  const std::vector<char>& usable() const { return usable_; }
+  const std::vector<char>& holdout() const { return holdout_; }
+
+  // Sample ids of usable texels in cluster k (all clusters when k < 0), train or held-out.
+  std::vector<int64_t> Ids(int k, bool heldout) const {
+    std::vector<int64_t> ids;
+    for (int t = 0; t < nt_; ++t) {
+      if (!usable_[t] || (k >= 0 && assign_[t] != k)) continue;
+      for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i)
+        if (bool(holdout_[i]) == heldout) ids.push_back(i);
+    }
+    return ids;
+  }
+
+  void SetBasis(int k, const BasisMaterial& b) {
+    if (k == K()) {
+      basis_.push_back(b);
+      pred_.emplace_back();
+    } else {
+      basis_[k] = b;
+    }
+    pred_[k] = Predict(b);
+  }
+  void RemoveBasis(int k) {
+    basis_.erase(basis_.begin() + k);
+    pred_.erase(pred_.begin() + k);
+    for (int& a : assign_) a = a == k ? 0 : (a > k ? a - 1 : a);
+  }
+
+  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init) const {
+    return FitModel(spec, s_, Ids(k, false), o_.fit, init);
+  }
+
+  // Squared error of texel t's samples under basis k with the best brightness
+  // scale a in [0.5, 2] shared by the channels (a texel may be darker or
+  // brighter than its material, but not of another colour).
+  double ScaledError(int t, int k, bool heldout) const {
+    double yp = 0, pp = 0, yy = 0;
+    const std::vector<float>& p = pred_[k];
+    for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
+      if (bool(holdout_[i]) != heldout) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double y = s_.y[c][i], q = p[3 * i + c];
+        yp += y * q, pp += q * q, yy += y * y;
+      }
+    }
+    const double a = pp > 0 ? std::clamp(yp / pp, 0.5, 2.0) : 0.0;
+    return std::max(0.0, yy - 2 * a * yp + a * a * pp);
+  }
+
+  // Assigns every usable texel to its best basis; returns how many changed.
+  long Assign() {
+    std::vector<int> next(assign_);
+    ParallelFor(nt_, o_.threads, [&](long t) {
+      if (!usable_[t]) return;
+      double best = 1e300;
+      for (int k = 0; k < K(); ++k) {
+        const double e = ScaledError(int(t), k, false);
+        if (e < best) best = e, next[t] = k;
+      }
+    }, 512);
+    long changed = 0;
+    for (int t = 0; t < nt_; ++t) changed += next[t] != assign_[t];
+    assign_ = next;
+    return changed;
+  }
+
+  // Per-texel NNLS mixing weights from one subset of samples (train, or all),
+  // error on another (held-out, or all). Returns the summed squared error and
+  // its sample-channel count; `weights` (texel-major [t][k][c]) when non-null.
+  double MixtureError(bool per_channel, bool fit_on_all, bool eval_on_all, int64_t* count,
+                      std::vector<float>* weights, std::vector<float>* residual) const {
+    const int K = this->K();
+    std::vector<double> sse(nt_, 0.0);
+    std::vector<int64_t> cnt(nt_, 0);
+    if (weights) weights->assign(size_t(nt_) * K * 3, 0.0f);
+    if (residual) residual->assign(nt_, 0.0f);
+    ParallelFor(nt_, o_.threads, [&](long t) {
+      const int64_t b = s_.texel_begin[t], e = s_.texel_begin[t + 1];
+      if (e == b) return;
+      Eigen::MatrixXd AtA[3], Atb[3];
+      for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(K, K), Atb[c] = Eigen::MatrixXd::Zero(K, 1);
+      for (int64_t i = b; i < e; ++i) {
+        if (!fit_on_all && holdout_[i]) continue;
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < K; ++k) {
+            const double pk = pred_[k][3 * i + c];
+            Atb[c](k) += pk * s_.y[c][i];
+            for (int l = 0; l <= k; ++l) AtA[c](k, l) += pk * pred_[l][3 * i + c];
+          }
+      }
+      Eigen::VectorXd w[3];
+      if (per_channel) {
+        for (int c = 0; c < 3; ++c) {
+          AtA[c].triangularView<Eigen::StrictlyUpper>() = AtA[c].transpose();
+          w[c] = NnlsNormal(AtA[c], Atb[c].col(0));
+        }
+      } else {
+        Eigen::MatrixXd A = AtA[0] + AtA[1] + AtA[2];
+        A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
+        w[0] = w[1] = w[2] = NnlsNormal(A, (Atb[0] + Atb[1] + Atb[2]).col(0));
+      }
+      double err = 0;
+      int64_t n = 0;
+      for (int64_t i = b; i < e; ++i) {
+        if (!eval_on_all && !holdout_[i]) continue;
+        for (int c = 0; c < 3; ++c) {
+          double q = 0;
+          for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
+          err += (q - s_.y[c][i]) * (q - s_.y[c][i]);
+          ++n;
+        }
+      }
+      sse[t] = err;
+      cnt[t] = n;
+      if (weights)
+        for (int k = 0; k < K; ++k)
+          for (int c = 0; c < 3; ++c) (*weights)[(size_t(t) * K + k) * 3 + c] = float(w[c](k));
+      if (residual && n) (*residual)[t] = float(std::sqrt(err / n));
+    }, 256);
+    *count = std::accumulate(cnt.begin(), cnt.end(), int64_t(0));
+    return std::accumulate(sse.begin(), sse.end(), 0.0);
+  }
+
+  double HeldoutRmse(bool per_channel = false) const {
+    int64_t n = 0;
+    const double sse = MixtureError(per_channel, false, false, &n, nullptr, nullptr);
+    return n ? std::sqrt(sse / n) : 0.0;
+  }
+  double TrainRmse(int k = -1) const {
+    int64_t n = 0;
+    double sse = 0;
+    for (int t = 0; t < nt_; ++t)
+      if (usable_[t] && (k < 0 || assign_[t] == k)) {
+        sse += ScaledError(t, assign_[t], false);
+        n += 3 * train_count_[t];
+      }
+    return n ? std::sqrt(sse / n) : 0.0;
+  }
+  double ClusterSse(int k) const {
+    double sse = 0;
+    for (int t = 0; t < nt_; ++t)
+      if (usable_[t] && assign_[t] == k) sse += ScaledError(t, k, false);
+    return sse;
+  }
+
+  // Lensch's split direction: principal component of the texels' linearised
+  // parameter deviations (see reconstruct.h, step 2b). Returns, for the
+  // texels of cluster k, the side (+1/-1) of each, 0 for others.
+  std::vector<int> SplitSides(int k) const {
+    const BasisMaterial& b = basis_[k];
+    const int N = b.spec.NumParams();
+    const auto info = b.spec.Params();
+    std::vector<int> texels;
+    for (int t = 0; t < nt_; ++t)
+      if (usable_[t] && assign_[t] == k) texels.push_back(t);
+    // A deterministic subset keeps this cheap on large atlases.
+    const size_t max_texels = 6000;
+    if (texels.size() > max_texels) {
+      std::vector<int> sub;
+      for (size_t i = 0; i < max_texels; ++i) sub.push_back(texels[i * texels.size() / max_texels]);
+      texels.swap(sub);
+    }
+    const size_t T = texels.size();
+    std::vector<Eigen::VectorXd> g(T, Eigen::VectorXd::Zero(N));
+    std::vector<Eigen::MatrixXd> Hs(T, Eigen::MatrixXd::Zero(N, N));
+    ParallelFor(long(T), o_.threads, [&](long j) {
+      const int t = texels[j];
+      std::vector<double> p(b.params);
+      for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
+        if (holdout_[i]) continue;
+        const Vec3 wi(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
+        const Rgb f0 = EvalModelD(b.spec, p.data(), wi, wo) * s_.geom[i];
+        Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, N);
+        for (int q = 0; q < N; ++q) {
+          const double h = 1e-6 * std::max(1.0, std::abs(p[q]));
+          p[q] += h;
+          const Rgb f1 = EvalModelD(b.spec, p.data(), wi, wo) * s_.geom[i];
+          p[q] -= h;
+          J.col(q) = ((f1 - f0) / h).matrix();
+        }
+        const Eigen::Vector3d r(s_.y[0][i] - f0[0], s_.y[1][i] - f0[1], s_.y[2][i] - f0[2]);
+        g[j] += J.transpose() * r;
+        Hs[j] += J.transpose() * J;
+      }
+    }, 64);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(N, N);
+    double n_total = 0;
+    for (size_t j = 0; j < T; ++j) H += Hs[j], n_total += train_count_[texels[j]];
+    H.diagonal() += Eigen::VectorXd::Constant(N, 1e-9 * (1.0 + H.diagonal().maxCoeff()));
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
+    Eigen::MatrixXd D(T, N);
+    for (size_t j = 0; j < T; ++j)
+      D.row(j) = (ldlt.solve(g[j]) * (n_total / std::max(1, train_count_[texels[j]]))).transpose();
+    // Whiten per parameter so the exponent's scale does not dominate.
+    const Eigen::RowVectorXd mean = D.colwise().mean();
+    D.rowwise() -= mean;
+    for (int q = 0; q < N; ++q) {
+      const double sd = std::sqrt(D.col(q).squaredNorm() / std::max<size_t>(1, T));
+      if (sd > 0) D.col(q) /= sd;
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(D.transpose() * D);
+    const Eigen::VectorXd v = eig.eigenvectors().col(N - 1);
+    std::vector<int> side(nt_, 0);
+    for (size_t j = 0; j < T; ++j) side[texels[j]] = D.row(j).dot(v) >= 0 ? 1 : -1;
+    return side;
+  }
+
+ private:
+  std::vector<float> Predict(const BasisMaterial& b) const {
+    std::vector<float> p(3 * size_t(s_.size()));
+    ParallelFor(s_.size(), o_.threads, [&](long i) {
+      const Vec3 wi(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
+      const Rgb f = EvalModelD(b.spec, b.params.data(), wi, wo) * s_.geom[i];
+      for (int c = 0; c < 3; ++c) p[3 * i + c] = float(f[c]);
+    }, 4096);
+    return p;
+  }
+
+  const SampleSet& s_;
+  const ReconstructOptions& o_;
+  const int nt_;
+  std::vector<char> holdout_;
+  std::vector<int> train_count_;
+  std::vector<char> usable_;
+  std::vector<int> assign_;
+  std::vector<BasisMaterial> basis_;
+  std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
+};
+
+BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
+  BasisMaterial b;
+  b.name = Msg("m", index);
+  b.spec = spec;
+  b.params = r.params;
+  return b;
+}
+
+// Assign and refit until stable or `iterations` done; drops empty clusters.
+void Refine(Clustering& cl, int iterations) {
+  for (int it = 0; it < iterations; ++it) {
+    const long changed = cl.Assign();
+    for (int k = cl.K() - 1; k >= 0; --k) {
+      const bool empty = std::none_of(cl.assign().begin(), cl.assign().end(), [&](int a) { return a == k; }) ||
+                         cl.Ids(k, false).empty();
+      if (empty && cl.K() > 1) cl.RemoveBasis(k);
+    }
+    if (changed == 0 && it > 0) break;
+    for (int k = 0; k < cl.K(); ++k) {
+      BasisMaterial b = cl.basis()[k];
+      b.params = cl.Fit(b.spec, k, b.params).params;
+      cl.SetBasis(k, b);
+    }
+  }
+}
+
+// Neighbour fill for texels without confident weights: repeated averaging of
+// the 4-neighbours that have weights (a discrete harmonic fill).
+void FillFromNeighbours(const Atlas& atlas, int K, std::vector<float>* w, std::vector<char>* known) {
+  const int nt = static_cast<int>(atlas.texels.size());
+  for (int pass = 0; pass < atlas.width + atlas.height; ++pass) {
+    std::vector<int> newly;
+    std::vector<float> acc(size_t(nt) * K * 3, 0.0f);
+    for (int t = 0; t < nt; ++t) {
+      if ((*known)[t]) continue;
+      const Texel& tx = atlas.texels[t];
+      int n = 0;
+      const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+      for (auto& d : nb) {
+        const int x = tx.x + d[0], y = tx.y + d[1];
+        if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
+        const int u = atlas.At(x, y);
+        if (u < 0 || !(*known)[u]) continue;
+        for (int j = 0; j < K * 3; ++j) acc[size_t(t) * K * 3 + j] += (*w)[size_t(u) * K * 3 + j];
+        ++n;
+      }
+      if (n == 0) continue;
+      for (int j = 0; j < K * 3; ++j) (*w)[size_t(t) * K * 3 + j] = acc[size_t(t) * K * 3 + j] / n;
+      newly.push_back(t);
+    }
+    if (newly.empty()) break;
+    for (int t : newly) (*known)[t] = 1;
+  }
+}
+
+}  // namespace
+
+SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o) {
+  o.Check();
+  if (samples.size() == 0) throw Error("reconstruct: no samples");
+  Clustering cl(samples, o);
+  SvbrdfEstimate est;
+  const ModelSpec cluster_spec = ModelSpec::FromLabel(o.force_model.empty() ? o.cluster_model : o.force_model);
+  auto log = [&](const std::string& s) {
+    if (o.progress) std::fprintf(stderr, "  %s\n", s.c_str());
+  };
+
+  // 1. One cluster.
+  cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
+  double heldout = cl.HeldoutRmse();
+  est.history.push_back({1, cl.TrainRmse(), heldout, true});
+  log(Msg("1 cluster: held-out RMSE ", heldout));
+
+  // 2. Progressive splitting.
+  const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
+  std::vector<char> unsplittable;
+  while (cl.K() < target) {
+    unsplittable.resize(cl.K(), 0);
+    int k = -1;
+    double worst = -1;
+    for (int j = 0; j < cl.K(); ++j) {
+      const double e = cl.ClusterSse(j);
+      if (!unsplittable[j] && e > worst) worst = e, k = j;
+    }
+    if (k < 0) break;
+    const std::vector<BasisMaterial> saved_basis = cl.basis();
+    const std::vector<int> saved_assign = cl.assign();
+    const std::vector<int> side = cl.SplitSides(k);
+    const long plus = std::count(side.begin(), side.end(), 1), minus = std::count(side.begin(), side.end(), -1);
+    if (std::min(plus, minus) < 2) {
+      unsplittable[k] = 1;
+      continue;
+    }
+    const int knew = cl.K();
+    for (size_t t = 0; t < side.size(); ++t)
+      if (side[t] < 0) cl.assign()[t] = knew;
+      else if (side[t] == 0 && cl.assign()[t] == k) cl.assign()[t] = -1;  // re-assigned below
+    const BasisMaterial parent = cl.basis()[k];
+    cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params), knew));
+    cl.SetBasis(k, MakeBasis(parent.spec, cl.Fit(parent.spec, k, parent.params), k));
+    for (int& a : cl.assign()) if (a < 0) a = k;
+    Refine(cl, o.refine_iterations);
+    const double h = cl.HeldoutRmse();
+    const double drop = (heldout * heldout - h * h) / std::max(1e-300, heldout * heldout);
+    const bool accept = o.force_clusters > 0 || (cl.K() > int(saved_basis.size()) && drop >= o.min_improvement);
+    est.history.push_back({cl.K(), cl.TrainRmse(), h, accept});
+    log(Msg(cl.K(), " clusters: held-out RMSE ", h, " (", 100 * drop, " % lower error) ", accept ? "kept" : "rejected"));
+    if (!accept) {
+      // Undo: restore the previous basis and assignment, then stop.
+      while (cl.K() > 0 && cl.K() > int(saved_basis.size())) cl.RemoveBasis(cl.K() - 1);
+      for (int j = 0; j < int(saved_basis.size()); ++j) cl.SetBasis(j, saved_basis[j]);
+      cl.assign() = saved_assign;
+      break;
+    }
+    heldout = h;
+  }
+
+  // 3. Model economy per cluster.
+  std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
+  for (int k = 0; k < cl.K(); ++k) {
+    const std::vector<int64_t> hold = cl.Ids(k, true);
+    struct Tried {
+      ModelSpec spec;
+      FitResult fit;
+      double rmse;
+    };
+    std::vector<Tried> tried;
+    for (const std::string& label : candidates) {
+      const ModelSpec spec = ModelSpec::FromLabel(label);
+      const FitResult r = cl.Fit(spec, k, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
+      int64_t n = 0;
+      const double sse = SumSquaredResidual(spec, r.params, samples, hold, &n);
+      tried.push_back({spec, r, n ? std::sqrt(sse / n) : 0.0});
+    }
+    double best = 1e300;
+    for (const Tried& t : tried) best = std::min(best, t.rmse);
+    int chosen = -1;
+    for (size_t j = 0; j < tried.size(); ++j)
+      if (tried[j].rmse * tried[j].rmse <= best * best * (1 + o.parsimony) &&
+          (chosen < 0 || tried[j].spec.NumParams() < tried[chosen].spec.NumParams()))
+        chosen = int(j);
+    for (size_t j = 0; j < tried.size(); ++j)
+      est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen});
+    log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse, ")"));
+    cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
+  }
+  Refine(cl, std::max(1, o.refine_iterations - 1));
+
+  // 4. Mixing weights: scalar or per channel, by held-out error.
+  est.heldout_rmse_scalar = cl.HeldoutRmse(false);
+  est.heldout_rmse_channel = cl.HeldoutRmse(true);
+  est.per_channel_weights = est.heldout_rmse_channel < est.heldout_rmse_scalar;
+  est.heldout_rmse = std::min(est.heldout_rmse_scalar, est.heldout_rmse_channel);
+  log(Msg("weights: ", est.per_channel_weights ? "per channel" : "scalar", " (held-out RMSE scalar ",
+          est.heldout_rmse_scalar, ", per channel ", est.heldout_rmse_channel, ")"));
+  int64_t n = 0;
+  cl.MixtureError(est.per_channel_weights, true, true, &n, &est.weights, &est.residual);
+
+  // 5. Confidence and neighbour fill.
+  const int K = cl.K();
+  const int nt = samples.num_texels;
+  est.num_texels = nt;
+  est.confidence.assign(nt, 0.0f);
+  std::vector<char> known(nt, 0);
+  for (int t = 0; t < nt; ++t) {
+    const int64_t b = samples.texel_begin[t], e = samples.texel_begin[t + 1];
+    // Spread: RMS distance of the half vectors from their mean (0 = one direction only).
+    Vec3 mean = Vec3::Zero();
+    std::vector<Vec3> hs;
+    for (int64_t i = b; i < e; ++i) {
+      const Vec3 h = Vec3(samples.wi[0][i] + samples.wo[0][i], samples.wi[1][i] + samples.wo[1][i],
+                          samples.wi[2][i] + samples.wo[2][i]).normalized();
+      hs.push_back(h);
+      mean += h;
+    }
+    double spread = 0;
+    if (!hs.empty()) {
+      mean /= double(hs.size());
+      for (const Vec3& h : hs) spread += (h - mean).squaredNorm();
+      spread = std::sqrt(spread / hs.size());
+    }
+    const double count_term = std::min(1.0, double(e - b) / (2.0 * o.min_samples));
+    const double spread_term = std::min(1.0, spread / 0.1);
+    est.confidence[t] = float(count_term * spread_term);
+    known[t] = (e - b) >= o.min_samples && spread > 0.02;
+  }
+  for (int t = 0; t < nt; ++t)
+    if (!known[t]) std::fill(est.weights.begin() + size_t(t) * K * 3, est.weights.begin() + size_t(t + 1) * K * 3, 0.0f);
+  FillFromNeighbours(atlas, K, &est.weights, &known);
+  est.label.assign(nt, -1);
+  for (int t = 0; t < nt; ++t) {
+    double best = -1;
+    for (int k = 0; k < K; ++k) {
+      const double w = est.weights[(size_t(t) * K + k) * 3] + est.weights[(size_t(t) * K + k) * 3 + 1] +
+                       est.weights[(size_t(t) * K + k) * 3 + 2];
+      if (w > best) best = w, est.label[t] = k;
+    }
+  }
+  for (int k = 0; k < K; ++k) cl.basis()[k].name = Msg("m", k);
+  est.basis = cl.basis();
+  return est;
+}
+
+Material ToMaterial(const SvbrdfEstimate& est, const Atlas& atlas, const Mesh& mesh) {
+  Material m;
+  m.mesh = mesh;
+  m.width = atlas.width;
+  m.height = atlas.height;
+  m.basis = est.basis;
+  const int K = static_cast<int>(est.basis.size());
+  for (int k = 0; k < K; ++k) m.weights.emplace_back(atlas.width, atlas.height, 3, 0.0f);
+  m.confidence = Image(atlas.width, atlas.height, 1, 0.0f);
+  m.material_id = Image(atlas.width, atlas.height, 1, -1.0f);
+  for (size_t t = 0; t < atlas.texels.size(); ++t) {
+    const Texel& tx = atlas.texels[t];
+    for (int k = 0; k < K; ++k)
+      for (int c = 0; c < 3; ++c) m.weights[k].at(tx.x, tx.y, c) = est.weights[(t * K + k) * 3 + c];
+    m.confidence.at(tx.x, tx.y, 0) = est.confidence[t];
+    m.material_id.at(tx.x, tx.y, 0) = float(est.label[t]);
+  }
+  return m;
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,98 @@
+// Progressive clustering in the style of Lensch et al. 2001 ("Image-based
+// reconstruction of spatially varying materials", EGWR 2001), with the number
+// of basis materials and each material's model chosen from held-out data.
+//
+// Algorithm (every step deterministic for a given seed):
+//  0. Split samples into training and held-out sets (per sample, by a hash of
+//     seed, texel and image; `holdout_fraction`). Texels with fewer than
+//     `min_samples` training samples do not take part in fits.
+//  1. One cluster holding every texel; fit `cluster_model` to it.
+//  2. Repeat until `max_clusters`:
+//     a. Take the cluster with the largest training error.
+//     b. Direction of largest parameter variance: each texel's linearised
+//        parameter deviation d_t = (n/n_t) H^-1 J_t^T r_t (one Gauss-Newton
+//        step on its own samples, H the cluster's J^T J), whitened per
+//        parameter; its principal component v.
+//     c. Split the cluster's texels by the sign of (d_t - mean) . v (the
+//        parameter offsets +-v of Lensch's split), fit a model to each half.
+//     d. Refinement: assign every texel to the basis material that explains its
+//        training samples best (with one free brightness scale per texel),
+//        refit the clusters that changed; `refine_iterations` times.
+//     e. Held-out error: project every texel's training samples onto all basis
+//        materials with non-negative scalar weights (NNLS), measure the squared
+//        error on its held-out samples. Stop (and undo the split) when the
+//        relative drop is below `min_improvement`.
+//  3. Model economy per cluster: fit every candidate model to the cluster's
+//     training samples, keep the model with the fewest parameters whose
+//     held-out error is within `parsimony` of the best one; refine again.
+//  4. Mixing weights: NNLS per texel over all its samples, either one scalar
+//     weight per basis material or one per colour channel, whichever predicts
+//     the held-out samples better.
+//  5. Texels with too few or poorly spread samples: weights filled in from
+//     neighbouring texels, low confidence.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "fit/fit.h"
+#include "gather/samples.h"
+#include "io/material.h"
+
+namespace svbrdf {
+
+struct ReconstructOptions {
+  // Models tried for every basis material (model selection); `force_model` skips the choice.
+  std::vector<std::string> candidate_models = {"lambert", "oren_nayar", "lafortune-1", "lafortune-2",
+                                               "cook_torrance-beckmann", "cook_torrance-ggx"};
+  std::string force_model;
+  std::string cluster_model = "lafortune-1";  // model used while splitting
+  int max_clusters = 8;
+  int force_clusters = 0;        // > 0: exactly this many basis materials (no stopping rule)
+  double holdout_fraction = 0.2;
+  double min_improvement = 0.03; // stop splitting when held-out error drops by less (relative)
+  double parsimony = 0.01;       // prefer fewer parameters within this relative held-out error
+  int refine_iterations = 3;
+  int min_samples = 4;           // per texel, for fits and confident weights
+  FitOptions fit;
+  int threads = 0;
+  uint64_t seed = 1;
+  bool progress = true;
+  void Check() const;
+};
+
+struct ClusterStep {
+  int clusters = 0;
+  double train_rmse = 0, heldout_rmse = 0;
+  bool accepted = true;
+};
+
+struct ModelChoice {
+  int cluster = 0;
+  std::string label;
+  double heldout_rmse = 0;
+  int num_params = 0;
+  bool chosen = false;
+};
+
+struct SvbrdfEstimate {
+  std::vector<BasisMaterial> basis;
+  int num_texels = 0;
+  std::vector<float> weights;     // texel-major: [t][k][c]
+  bool per_channel_weights = false;
+  std::vector<int> label;         // basis index per texel (largest weight)
+  std::vector<float> confidence;  // per texel, [0,1]
+  std::vector<float> residual;    // per texel RMS residual of its samples
+  std::vector<ClusterStep> history;
+  std::vector<ModelChoice> model_choices;
+  double heldout_rmse = 0;        // final, with the chosen weights mode
+  double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;
+};
+
+SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options);
+
+// Writes the estimate as a material folder (weights, confidence, material-id,
+// residual maps) for the given mesh (whose UVs the atlas uses).
+Material ToMaterial(const SvbrdfEstimate& est, const Atlas& atlas, const Mesh& mesh);
+
+}  // namespace svbrdf

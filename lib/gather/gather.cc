@@ -1,0 +1,160 @@
+#include "gather/gather.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "raytrace/raytracer.h"
+
+namespace svbrdf {
+
+void GatherOptions::Check() const {
+  if (texture_size < 4 || texture_size > 8192) throw Error(Msg("gather: texture size must be in [4, 8192], got ", texture_size));
+  if (!(min_cos >= 0 && min_cos < 1)) throw Error(Msg("gather: min_cos must be in [0, 1), got ", min_cos));
+}
+
+std::string GatherStats::Report() const {
+  std::ostringstream os;
+  os << "samples kept " << kept << " of " << candidates << " texel-views (" << texels << " texels); rejected: "
+     << outside_image << " outside image, " << back_facing << " back-facing/grazing view, " << occluded
+     << " occluded, " << outside_mask << " outside mask, " << unlit << " unlit/grazing light, " << shadowed
+     << " shadowed, " << saturated << " saturated";
+  return os.str();
+}
+
+namespace {
+
+enum Reason : uint8_t { kKept, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated };
+
+struct Record {
+  uint8_t reason = kOutsideImage;
+  float wi[3], wo[3], geom, y[3];
+};
+
+}  // namespace
+
+GatherResult Gather(const Scene& scene, const GatherOptions& options) {
+  options.Check();
+  GatherResult out;
+  out.mesh = LoadMesh(scene.Resolve(scene.mesh));
+  out.mesh.Validate(scene.Resolve(scene.mesh));
+  if (!out.mesh.HasUVs()) {
+    out.mesh = MakeTrivialAtlasUVs(out.mesh, options.texture_size);
+    out.made_uvs = true;
+  }
+  out.atlas = BuildAtlas(out.mesh, options.texture_size, options.texture_size, 1);
+  const Atlas& atlas = out.atlas;
+  const long nt = static_cast<long>(atlas.texels.size());
+  if (nt == 0) throw Error(Msg(scene.mesh, ": texture coordinates cover no texel of a ", options.texture_size, "^2 atlas"));
+  RayTracer tracer(out.mesh);
+  const double eps = 1e-4;  // ray offset (metres)
+
+  std::vector<std::vector<Record>> per_image(scene.images.size());
+  GatherStats& st = out.stats;
+  st.texels = nt;
+  Progress progress("gather samples", static_cast<long>(scene.images.size()), options.progress);
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    const ImageEntry& e = scene.images[i];
+    const Camera& cam = scene.CameraById(e.camera);
+    const Light& light = scene.LightById(e.light);
+    const std::string view = Msg("images[", i, "] (", e.file, ")");
+    const Image img = ReadImage(scene.Resolve(e.file), scene.images_color_space);
+    if (img.width != cam.width || img.height != cam.height)
+      throw Error(Msg(view, ": image is ", img.width, "x", img.height, " but camera ", cam.id, " is ", cam.width, "x",
+                      cam.height));
+    if (img.channels < 1) throw Error(Msg(view, ": image has no channels"));
+    Image mask;
+    if (!e.mask.empty()) {
+      mask = ReadImage(scene.Resolve(e.mask));
+      if (mask.width != cam.width || mask.height != cam.height)
+        throw Error(Msg(view, ": mask ", e.mask, " is ", mask.width, "x", mask.height, " but camera ", cam.id, " is ",
+                        cam.width, "x", cam.height));
+    }
+    const Rigid3 world_from_cam = e.cam_from_world.Inverse();
+    const Vec3 eye = world_from_cam.translation;
+    std::vector<Record>& recs = per_image[i];
+    recs.resize(nt);
+    ParallelFor(nt, options.threads, [&](long t) {
+      const Texel& tx = atlas.texels[t];
+      Record& r = recs[t];
+      const Vec3 x = tx.position, n = tx.normal;
+      const Vec3 xc = e.cam_from_world * x;
+      if (xc.z() <= 1e-9) return void(r.reason = kOutsideImage);
+      const Vec2 px = cam.Project(xc);
+      // Bilinear footprint must lie inside the image.
+      if (!(px.x() >= 1.0 && px.y() >= 1.0 && px.x() <= cam.width - 1.0 && px.y() <= cam.height - 1.0))
+        return void(r.reason = kOutsideImage);
+      Vec3 to_eye = eye - x;
+      const double dist = to_eye.norm();
+      to_eye /= dist;
+      if (n.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
+      if (tracer.Occluded(x + n * eps, to_eye, 0.0, dist - 2 * eps)) return void(r.reason = kOccluded);
+      const int x0 = static_cast<int>(std::floor(px.x() - 0.5)), y0 = static_cast<int>(std::floor(px.y() - 0.5));
+      if (!e.mask.empty()) {
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx)
+            if (mask.at(x0 + dx, y0 + dy, 0) <= 0) return void(r.reason = kOutsideMask);
+      }
+      const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
+      const double cos_i = n.dot(ls.wi);
+      if (cos_i < options.min_cos || !(ls.normal_irradiance > 0).all()) return void(r.reason = kUnlit);
+      if (tracer.Occluded(x + n * eps, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * eps))
+        return void(r.reason = kShadowed);
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx)
+          for (int c = 0; c < img.channels; ++c)
+            if (img.at(x0 + dx, y0 + dy, c) >= img.saturation_level) return void(r.reason = kSaturated);
+      const Frame frame = Frame::FromNormalTangent(n, tx.tangent);
+      const Vec3 wi = frame.ToLocal(ls.wi), wo = frame.ToLocal(to_eye);
+      // Measurement model (samples.h): value_c / exposure = f_c * cos_i * E_c;
+      // with s = mean_c E_c: y_c = value_c / exposure * s / E_c, geom = cos_i * s.
+      const double s = ls.normal_irradiance.mean();
+      for (int c = 0; c < 3; ++c) {
+        const double v = img.Bilinear(px.x(), px.y(), std::min(c, img.channels - 1));
+        r.y[c] = static_cast<float>(v / e.exposure * s / ls.normal_irradiance[c]);
+        r.wi[c] = static_cast<float>(wi[c]);
+        r.wo[c] = static_cast<float>(wo[c]);
+      }
+      r.geom = static_cast<float>(cos_i * s);
+      r.reason = kKept;
+    }, 256);
+    long kept = 0;
+    for (const Record& r : recs) {
+      ++st.candidates;
+      switch (r.reason) {
+        case kKept: ++kept; break;
+        case kOutsideImage: ++st.outside_image; break;
+        case kBackFacing: ++st.back_facing; break;
+        case kOccluded: ++st.occluded; break;
+        case kOutsideMask: ++st.outside_mask; break;
+        case kUnlit: ++st.unlit; break;
+        case kShadowed: ++st.shadowed; break;
+        case kSaturated: ++st.saturated; break;
+      }
+    }
+    st.kept += kept;
+    st.kept_per_image.push_back(kept);
+    progress.Tick();
+  }
+  progress.Finish();
+  if (st.kept == 0) throw Error(Msg("no usable samples in ", scene.images.size(), " views: ", st.Report()));
+
+  // Counting sort by texel (stable in image order), into structure of arrays.
+  SampleSet& ss = out.samples;
+  ss.num_texels = static_cast<int>(nt);
+  ss.texel_begin.assign(nt + 1, 0);
+  for (const auto& recs : per_image)
+    for (long t = 0; t < nt; ++t) ss.texel_begin[t + 1] += recs[t].reason == kKept;
+  for (long t = 0; t < nt; ++t) ss.texel_begin[t + 1] += ss.texel_begin[t];
+  ss.Reserve(st.kept);
+  for (long t = 0; t < nt; ++t)
+    for (size_t i = 0; i < per_image.size(); ++i) {
+      const Record& r = per_image[i][t];
+      if (r.reason == kKept) ss.Push(static_cast<int32_t>(t), static_cast<int32_t>(i), r.wi, r.wo, r.geom, r.y);
+    }
+  return out;
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,49 @@
+// Per-texel sample gathering: for every texel of the atlas and every photo,
+// decide whether the photo measures that texel's BRDF, and if so store the
+// sample (directions in the texel's local frame, measured radiance per unit
+// light, geometry factor). A sample is kept only when the texel is
+//   inside the image (away from its border), facing the camera at more than
+//   the grazing limit, visible from the camera (Embree occlusion ray),
+//   inside the mask (all four pixels of the bilinear footprint), lit (facing
+//   the light at more than the grazing limit, not shadowed: occlusion ray),
+//   and not saturated (no channel of the footprint at the file's maximum).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "gather/samples.h"
+#include "io/mesh.h"
+#include "io/scene.h"
+
+namespace svbrdf {
+
+struct GatherOptions {
+  int texture_size = 128;       // atlas resolution (square)
+  double min_cos = 0.15;        // grazing limit for view and light directions (cos of the angle)
+  int threads = 0;
+  bool progress = true;
+  void Check() const;
+};
+
+struct GatherStats {
+  long texels = 0, candidates = 0, kept = 0;
+  long outside_image = 0, back_facing = 0, occluded = 0, outside_mask = 0, unlit = 0, shadowed = 0,
+       saturated = 0;
+  std::vector<long> kept_per_image;
+  std::string Report() const;
+};
+
+struct GatherResult {
+  Mesh mesh;      // the mesh whose UVs the atlas uses (made here when the input had none)
+  bool made_uvs = false;
+  Atlas atlas;
+  SampleSet samples;
+  GatherStats stats;
+};
+
+// Throws Error naming the view for a photo or mask whose size disagrees with
+// its camera, and when no usable sample remains (with the rejection counts).
+GatherResult Gather(const Scene& scene, const GatherOptions& options);
+
+}  // namespace svbrdf
