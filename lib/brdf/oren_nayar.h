@@ -2,6 +2,11 @@
 // Lambertian facets and Gaussian slope distribution of standard deviation sigma.
 // Reciprocal; sigma = 0 gives Lambert.
 //
+// Energy: this qualitative form does not quite conserve energy. At grazing
+// incidence its albedo tends to rd (A + B/2) (sin(alpha) -> 1, and
+// int max(0, cos dphi) tan(theta_r) cos(theta_r) dw / pi = 1/2), which peaks
+// at 1.0152 rd for sigma ~ 0.2; rd <= 0.985 keeps the albedo <= 1.
+//
 //   rd      diffuse albedo per channel                          [0, 1]
 //   sigma   standard deviation of facet angles, radians         [0, 1]
 //
