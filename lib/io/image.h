@@ -38,6 +38,11 @@ Image ReadImage(const std::string& path, ColorSpace space = ColorSpace::kLinear)
 void WriteImage(const std::string& path, const Image& image, PixelFormat format = PixelFormat::kFloat,
                 ColorSpace space = ColorSpace::kLinear);
 
+// Label maps (material ids): integer values stored unnormalised in 8- or
+// 16-bit PNG, read back as the same integers (as floats).
+Image ReadLabelImage(const std::string& path);
+void WriteLabelImage(const std::string& path, const Image& labels);  // 8 bit if all ids <= 255, else 16 bit
+
 // Fraction of pixels (of the given mask, if any) with any channel >= saturation_level.
 double SaturatedFraction(const Image& image, const Image* mask = nullptr);
 

@@ -49,8 +49,9 @@ LightSample SampleLight(const Light& light, const Vec3& x_world, const Eigen::Qu
       // alpha: angle between the beam axis and the direction from the light to the point.
       const double cos_alpha = to_world_dir(light.direction).normalized().dot(-s.wi);
       const double cos_cutoff = std::cos(light.cutoff_deg * kPi / 180.0);
-      if (cos_alpha >= cos_cutoff && cos_alpha > 0)
-        s.normal_irradiance = light.intensity * std::pow(cos_alpha, light.exponent) * inv_r2;
+      // max(0, .) keeps cutoffs beyond 90 degrees finite; pow(0, 0) = 1 for a uniform cone.
+      if (cos_alpha >= cos_cutoff)
+        s.normal_irradiance = light.intensity * std::pow(std::max(cos_alpha, 0.0), light.exponent) * inv_r2;
       break;
     }
     case LightType::kGoniometric: {

@@ -1,0 +1,198 @@
+// material.json, "svbrdf-material/1":
+//   {"format": "svbrdf-material/1", "mesh": "mesh.obj", "resolution": [W, H],
+//    "basis": [{"name": "m0", "model": "lafortune", "label": "lafortune-2",
+//               "params": {"rd_r": 0.3, ...}}, ...],
+//    "weights": ["weights/m0.exr", ...],          // 3-channel EXR, one per basis material
+//    "normal_map": "normal.exr",                  // optional, world-space unit normals (RGB = xyz)
+//    "confidence": "confidence.exr",              // optional, 1 channel
+//    "material_id": "material_id.png",            // optional, integer basis index per texel
+//    "info": {...}}                               // optional, free-form provenance
+#include "io/material.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <set>
+
+#include "core/error.h"
+#include "io/json_field.h"
+#include "io/scene.h"
+
+namespace svbrdf {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+constexpr const char* kMaterialFormat = "svbrdf-material/1";
+
+// Checks a loaded (or to-be-written) map against the material's resolution.
+void CheckMap(const Image& img, int width, int height, int channels, const std::string& where) {
+  if (img.width != width || img.height != height || img.channels != channels)
+    throw Error(Msg(where, ": expected ", width, "x", height, " with ", channels, " channel(s), got ", img.width, "x",
+                    img.height, " with ", img.channels));
+}
+
+BasisMaterial BasisFromField(const JsonField& f) {
+  f.AllowOnly({"name", "model", "label", "params"});
+  BasisMaterial b;
+  b.name = f.Get<std::string>("name");
+  const std::string label = f.Get<std::string>("label");
+  try {
+    b.spec = ModelSpec::FromLabel(label);
+  } catch (const Error& e) {
+    f.FailAt("label", e.what());
+  }
+  const std::string model = f.Get<std::string>("model");
+  if (model != b.spec.Name())
+    f.FailAt("model", Msg("\"", model, "\" does not match label \"", label, "\" (expected \"", b.spec.Name(), "\")"));
+  const JsonField params = f.Member("params", "object of parameter values by name");
+  const std::vector<ParamInfo> infos = b.spec.Params();
+  std::string expected, missing;
+  for (const ParamInfo& p : infos) {
+    expected += (expected.empty() ? "" : ", ") + p.name;
+    if (!params.Has(p.name)) missing += (missing.empty() ? "" : ", ") + p.name;
+  }
+  for (const auto& [key, value] : params.json().items()) {
+    bool known = false;
+    for (const ParamInfo& p : infos) known = known || p.name == key;
+    if (!known) params.FailAt(key, Msg("unknown parameter for ", label, " (expected ", expected, ")"));
+  }
+  if (!missing.empty()) f.FailAt("params", Msg("missing parameter(s) ", missing, " for ", label));
+  for (const ParamInfo& p : infos) b.params.push_back(params.Get<double>(p.name));
+  return b;
+}
+
+// Reads an optional map named by `key`; leaves `img` empty when absent.
+void LoadOptionalMap(const JsonField& root, const std::string& dir, const std::string& key, int channels, int width,
+                     int height, bool labels, Image* img) {
+  if (!root.Has(key)) return;
+  const std::string path = (fs::path(dir) / root.Get<std::string>(key)).string();
+  try {
+    *img = labels ? ReadLabelImage(path) : ReadImage(path);
+    CheckMap(*img, width, height, channels, path);
+  } catch (const Error& e) {
+    root.FailAt(key, e.what());
+  }
+}
+
+}  // namespace
+
+json BasisToJson(const BasisMaterial& b) {
+  const std::vector<ParamInfo> infos = b.spec.Params();
+  if (b.params.size() != infos.size())
+    throw Error(Msg("basis material '", b.name, "': ", b.params.size(), " parameters for ", b.spec.Label(),
+                    " which has ", infos.size()));
+  json params = json::object();
+  for (size_t i = 0; i < infos.size(); ++i) params[infos[i].name] = b.params[i];
+  return {{"name", b.name}, {"model", b.spec.Name()}, {"label", b.spec.Label()}, {"params", params}};
+}
+
+BasisMaterial BasisFromJson(const json& j, const std::string& context) { return BasisFromField(JsonField(j, context)); }
+
+Material LoadMaterial(const std::string& dir) {
+  const std::string file = (fs::path(dir) / "material.json").string();
+  const json j = ReadJsonFile(file);
+  const JsonField root(j, file);
+  root.AllowOnly({"format", "mesh", "resolution", "basis", "weights", "normal_map", "confidence", "material_id", "info"});
+  const std::string format = root.Get<std::string>("format");
+  if (format != kMaterialFormat) root.FailAt("format", Msg("expected \"", kMaterialFormat, "\", got \"", format, "\""));
+
+  Material m;
+  m.dir = dir;
+  m.mesh_file = root.Get<std::string>("mesh");
+  try {
+    m.mesh = LoadMesh((fs::path(dir) / m.mesh_file).string());
+  } catch (const Error& e) {
+    root.FailAt("mesh", e.what());
+  }
+  if (!m.mesh.HasUVs()) root.FailAt("mesh", "mesh has no texture coordinates (the maps need them)");
+  const Vec2 res = root.Get<Vec2>("resolution");
+  m.width = static_cast<int>(res.x());
+  m.height = static_cast<int>(res.y());
+  if (m.width != res.x() || m.height != res.y() || m.width <= 0 || m.height <= 0)
+    root.FailAt("resolution", "expected [width, height] of positive integers");
+
+  const std::vector<JsonField> basis = root.Items("basis");
+  if (basis.empty()) root.FailAt("basis", "expected at least one basis material");
+  std::set<std::string> names;
+  for (const JsonField& f : basis) {
+    m.basis.push_back(BasisFromField(f));
+    if (!names.insert(m.basis.back().name).second) f.FailAt("name", Msg("duplicate name \"", m.basis.back().name, "\""));
+  }
+  const std::vector<JsonField> weights = root.Items("weights");
+  if (weights.size() != basis.size())
+    root.FailAt("weights", Msg("expected one map per basis material (", basis.size(), "), got ", weights.size()));
+  for (const JsonField& w : weights) {
+    const std::string path = (fs::path(dir) / w.As<std::string>()).string();
+    try {
+      m.weights.push_back(ReadImage(path));
+      CheckMap(m.weights.back(), m.width, m.height, 3, path);
+    } catch (const Error& e) {
+      w.Fail(e.what());
+    }
+  }
+  LoadOptionalMap(root, dir, "normal_map", 3, m.width, m.height, false, &m.normal_map);
+  LoadOptionalMap(root, dir, "confidence", 1, m.width, m.height, false, &m.confidence);
+  LoadOptionalMap(root, dir, "material_id", 1, m.width, m.height, true, &m.material_id);
+  if (root.Has("info")) m.extra = j["info"];
+  return m;
+}
+
+void SaveMaterial(const Material& m, const std::string& dir_in) {
+  // Without a trailing slash, so the temporary folder is a sibling.
+  const fs::path dir = fs::path(dir_in).lexically_normal().parent_path() / fs::path(dir_in).lexically_normal().filename();
+  const std::string where = (dir / "material.json").string();
+  if (m.basis.empty()) throw Error(Msg(where, ": material has no basis materials"));
+  if (m.weights.size() != m.basis.size())
+    throw Error(Msg(where, ": ", m.weights.size(), " weight maps for ", m.basis.size(), " basis materials"));
+  if (!m.mesh.HasUVs()) throw Error(Msg(where, ": mesh has no texture coordinates"));
+  for (size_t i = 0; i < m.weights.size(); ++i) CheckMap(m.weights[i], m.width, m.height, 3, Msg(where, ": weights[", i, "]"));
+  if (m.normal_map.width) CheckMap(m.normal_map, m.width, m.height, 3, where + ": normal_map");
+  if (m.confidence.width) CheckMap(m.confidence, m.width, m.height, 1, where + ": confidence");
+  if (m.material_id.width) CheckMap(m.material_id, m.width, m.height, 1, where + ": material_id");
+
+  const fs::path tmp = Msg(dir.string(), ".tmp-", getpid());
+  std::error_code ec;
+  fs::remove_all(tmp, ec);
+  try {
+    fs::create_directories(tmp / "weights");
+    json j = {{"format", kMaterialFormat}, {"mesh", m.mesh_file}, {"resolution", {m.width, m.height}}};
+    fs::create_directories((tmp / m.mesh_file).parent_path());
+    SaveObj(m.mesh, (tmp / m.mesh_file).string());
+    j["basis"] = json::array();
+    j["weights"] = json::array();
+    for (size_t i = 0; i < m.basis.size(); ++i) {
+      BasisMaterial b = m.basis[i];
+      if (b.name.empty()) b.name = Msg("m", i);
+      j["basis"].push_back(BasisToJson(b));
+      const std::string rel = Msg("weights/m", i, ".exr");
+      WriteImage((tmp / rel).string(), m.weights[i], PixelFormat::kFloat);
+      j["weights"].push_back(rel);
+    }
+    if (m.normal_map.width) {
+      WriteImage((tmp / "normal.exr").string(), m.normal_map, PixelFormat::kFloat);
+      j["normal_map"] = "normal.exr";
+    }
+    if (m.confidence.width) {
+      WriteImage((tmp / "confidence.exr").string(), m.confidence, PixelFormat::kFloat);
+      j["confidence"] = "confidence.exr";
+    }
+    if (m.material_id.width) {
+      WriteLabelImage((tmp / "material_id.png").string(), m.material_id);
+      j["material_id"] = "material_id.png";
+    }
+    if (!m.extra.is_null()) j["info"] = m.extra;
+    WriteFileAtomic((tmp / "material.json").string(), j.dump(2) + "\n");
+    // Replace the destination only once everything is written.
+    fs::remove_all(dir);
+    fs::rename(tmp, dir);
+  } catch (const fs::filesystem_error& e) {
+    fs::remove_all(tmp, ec);
+    throw Error(Msg(where, ": cannot write material folder: ", e.what()));
+  } catch (...) {
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+}
+
+}  // namespace svbrdf

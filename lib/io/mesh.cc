@@ -1,0 +1,165 @@
+// Mesh utilities and the OBJ reader/writer; the PLY reader is in ply.cc.
+#include "io/mesh.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.h"
+#include "io/files.h"
+#include "io/scene.h"  // WriteFileAtomic
+
+namespace svbrdf {
+
+Mesh LoadPly(const std::string& path);  // ply.cc
+
+namespace {
+
+// Resolves a 1-based OBJ index (negative: relative to the end) to 0-based.
+int ObjIndex(const std::string& token, size_t count, const std::string& where) {
+  int i = 0;
+  const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), i);
+  if (ec != std::errc() || end != token.data() + token.size() || i == 0)
+    throw Error(Msg(where, ": bad index '", token, "'"));
+  const long resolved = i > 0 ? long(i) - 1 : long(count) + i;
+  if (resolved < 0 || resolved >= long(count))
+    throw Error(Msg(where, ": index ", i, " out of range (", count, " defined so far)"));
+  return static_cast<int>(resolved);
+}
+
+Mesh LoadObj(const std::string& path) {
+  std::istringstream in(ReadFileBytes(path));
+  Mesh mesh;
+  std::string line, tag;
+  int line_no = 0, faces_with_uv = 0, faces_without_uv = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::istringstream ls(line);
+    if (!(ls >> tag)) continue;
+    const std::string where = Msg(path, ":", line_no);
+    if (tag == "v" || tag == "vt") {
+      double a = 0, b = 0, c = 0;
+      if (!(ls >> a >> b)) throw Error(Msg(where, ": expected numbers after '", tag, "'"));
+      if (tag == "vt") {
+        mesh.texcoords.emplace_back(a, b);
+      } else {
+        if (!(ls >> c)) throw Error(Msg(where, ": expected 3 numbers after 'v'"));
+        mesh.positions.emplace_back(a, b, c);
+      }
+    } else if (tag == "f") {
+      // Corners are v, v/vt, v//vn or v/vt/vn; normals are recomputed, so vn is ignored.
+      std::vector<int> pos, uv;
+      std::string corner;
+      while (ls >> corner) {
+        const size_t s1 = corner.find('/');
+        pos.push_back(ObjIndex(corner.substr(0, s1), mesh.positions.size(), where));
+        if (s1 == std::string::npos) continue;
+        const size_t s2 = corner.find('/', s1 + 1);
+        const std::string vt = corner.substr(s1 + 1, s2 == std::string::npos ? std::string::npos : s2 - s1 - 1);
+        if (!vt.empty()) uv.push_back(ObjIndex(vt, mesh.texcoords.size(), where));
+      }
+      if (pos.size() < 3) throw Error(Msg(where, ": face with fewer than 3 vertices"));
+      if (!uv.empty() && uv.size() != pos.size())
+        throw Error(Msg(where, ": some corners of the face have texture coordinates and some do not"));
+      (uv.empty() ? faces_without_uv : faces_with_uv)++;
+      for (size_t k = 1; k + 1 < pos.size(); ++k) {  // fan triangulation of polygons
+        mesh.faces.emplace_back(pos[0], pos[k], pos[k + 1]);
+        if (!uv.empty()) mesh.face_uvs.emplace_back(uv[0], uv[k], uv[k + 1]);
+      }
+    }
+    // Other statements (vn, o, g, s, usemtl, mtllib, comments) carry nothing we use.
+  }
+  if (faces_with_uv > 0 && faces_without_uv > 0)
+    throw Error(Msg(path, ": ", faces_without_uv, " faces lack texture coordinates while ", faces_with_uv,
+                    " have them"));
+  return mesh;
+}
+
+std::string LowerExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+// Shortest text that reads back as the same double, so SaveObj/LoadMesh round trips exactly.
+void AppendNumber(std::string& out, double v) {
+  char buf[32];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), v);
+  out.append(buf, end);
+}
+
+}  // namespace
+
+void Mesh::ComputeNormals() {
+  // Sum of unnormalised face normals (length = 2 x area) weights faces by area.
+  normals.assign(positions.size(), Vec3::Zero());
+  for (const Vec3i& f : faces) {
+    const Vec3 n = (positions[f[1]] - positions[f[0]]).cross(positions[f[2]] - positions[f[0]]);
+    for (int k = 0; k < 3; ++k) normals[f[k]] += n;
+  }
+  for (Vec3& n : normals) {
+    const double len = n.norm();
+    n = len > 0 ? Vec3(n / len) : Vec3::UnitZ();  // isolated vertex: any unit vector
+  }
+}
+
+void Mesh::Validate(const std::string& context) const {
+  if (faces.empty()) throw Error(Msg(context, ": mesh has no faces"));
+  for (size_t i = 0; i < positions.size(); ++i)
+    if (!positions[i].allFinite()) throw Error(Msg(context, ": vertex ", i, " is not finite"));
+  for (size_t i = 0; i < texcoords.size(); ++i)
+    if (!texcoords[i].allFinite()) throw Error(Msg(context, ": texture coordinate ", i, " is not finite"));
+  if (!face_uvs.empty() && face_uvs.size() != faces.size())
+    throw Error(Msg(context, ": ", face_uvs.size(), " UV faces for ", faces.size(), " faces"));
+  bool any_area = false;
+  for (size_t i = 0; i < faces.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (faces[i][k] < 0 || faces[i][k] >= int(positions.size()))
+        throw Error(Msg(context, ": face ", i, " refers to vertex ", faces[i][k], " of ", positions.size()));
+      if (HasUVs() && (face_uvs[i][k] < 0 || face_uvs[i][k] >= int(texcoords.size())))
+        throw Error(Msg(context, ": face ", i, " refers to texture coordinate ", face_uvs[i][k], " of ",
+                        texcoords.size()));
+    }
+    const Vec3i& f = faces[i];
+    any_area = any_area || (positions[f[1]] - positions[f[0]]).cross(positions[f[2]] - positions[f[0]]).norm() > 0;
+  }
+  if (!any_area) throw Error(Msg(context, ": every face is degenerate (zero area)"));
+}
+
+Mesh LoadMesh(const std::string& path) {
+  const std::string ext = LowerExtension(path);
+  Mesh mesh;
+  if (ext == ".obj") mesh = LoadObj(path);
+  else if (ext == ".ply") mesh = LoadPly(path);
+  else throw Error(Msg(path, ": unknown mesh format '", ext, "' (expected .obj or .ply)"));
+  mesh.Validate(path);
+  mesh.ComputeNormals();
+  return mesh;
+}
+
+void SaveObj(const Mesh& mesh, const std::string& path) {
+  std::string out = "# svbrdf mesh\n";
+  for (const Vec3& p : mesh.positions) {
+    out += "v";
+    for (int k = 0; k < 3; ++k) AppendNumber(out += ' ', p[k]);
+    out += '\n';
+  }
+  for (const Vec2& t : mesh.texcoords) {
+    out += "vt";
+    for (int k = 0; k < 2; ++k) AppendNumber(out += ' ', t[k]);
+    out += '\n';
+  }
+  for (size_t i = 0; i < mesh.faces.size(); ++i) {
+    out += "f";
+    for (int k = 0; k < 3; ++k) {
+      out += ' ' + std::to_string(mesh.faces[i][k] + 1);
+      if (mesh.HasUVs()) out += '/' + std::to_string(mesh.face_uvs[i][k] + 1);
+    }
+    out += '\n';
+  }
+  WriteFileAtomic(path, out);
+}
+
+}  // namespace svbrdf
