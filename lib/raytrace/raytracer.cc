@@ -65,7 +65,8 @@ struct RayTracer::Impl {
 
 RayTracer::RayTracer(const Mesh& mesh) : impl_(std::make_unique<Impl>()), mesh_(mesh) {
   // Embree would accept an empty scene and silently miss everything; an empty
-  // mesh is always a caller bug (failed load, wrong file), so say so.
+  // mesh is always a caller bug (failed load, wrong file), so say so. Index
+  // ranges are not rechecked here: meshes come from LoadMesh, which validates.
   if (mesh.faces.empty()) throw Error("RayTracer: mesh has no faces");
 
   impl_->device = rtcNewDevice(nullptr);
