@@ -145,7 +145,7 @@ TEST(RayTracer, ParallelQueriesMatchSerial) {
   }
 }
 
-TEST(RayTracer, EmptyMeshThrows) {
+TEST(RayTracer, InvalidMeshThrows) {
   const Mesh empty;
   try {
     RayTracer rt(empty);
@@ -153,6 +153,9 @@ TEST(RayTracer, EmptyMeshThrows) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no faces"), std::string::npos) << e.what();
   }
+  Mesh bad = Quad();
+  bad.faces[1][2] = 7;  // out of range: must not reach Embree
+  EXPECT_THROW(RayTracer rt(bad), Error);
 }
 
 }  // namespace

@@ -170,8 +170,7 @@ Texel MakeTexel(const Mesh& mesh, int x, int y, const Claim& c) {
 Atlas BuildAtlas(const Mesh& mesh, int width, int height, int dilate) {
   if (!mesh.HasUVs()) throw Error("BuildAtlas: mesh has no texture coordinates");
   if (width <= 0 || height <= 0) throw Error(Msg("BuildAtlas: invalid atlas size ", width, "x", height));
-  if (mesh.face_uvs.size() != mesh.faces.size())
-    throw Error(Msg("BuildAtlas: ", mesh.faces.size(), " faces but ", mesh.face_uvs.size(), " UV faces"));
+  mesh.Validate("BuildAtlas");  // UV face count and index ranges
 
   std::vector<Claim> grid = Rasterise(mesh, width, height);
   for (int i = 0; i < dilate; ++i) grid = DilateOnce(mesh, grid, width, height);

@@ -64,10 +64,10 @@ struct RayTracer::Impl {
 };
 
 RayTracer::RayTracer(const Mesh& mesh) : impl_(std::make_unique<Impl>()), mesh_(mesh) {
-  // Embree would accept an empty scene and silently miss everything; an empty
-  // mesh is always a caller bug (failed load, wrong file), so say so. Index
-  // ranges are not rechecked here: meshes come from LoadMesh, which validates.
-  if (mesh.faces.empty()) throw Error("RayTracer: mesh has no faces");
+  // Embree would accept an empty scene and silently miss everything, and read
+  // out of bounds on bad indices; meshes built in code get the same checks as
+  // loaded ones (no faces, index ranges, NaNs) with a clear message.
+  mesh.Validate("RayTracer");
 
   impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device)
