@@ -45,6 +45,10 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
 // assignment and model selection). Returns the sum and writes the count.
 double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& samples,
                           const std::vector<int64_t>& ids, int64_t* count = nullptr);
+// As above on `threads` threads (0 = all cores); the sum is bitwise the same
+// for any thread count.
+double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& samples,
+                          const std::vector<int64_t>& ids, int threads, int64_t* count);
 
 // Model prediction for one sample (f * geom per channel).
 Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& samples, int64_t s);

@@ -1,0 +1,114 @@
+#include "fit/batch_cost.h"
+
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/dynamic_autodiff_cost_function.h>
+
+#include <utility>
+
+#include "brdf/model_eval.h"  // instantiates EvalModel for ceres::Jet
+
+namespace svbrdf {
+namespace {
+
+// Parameter counts that get a compile-time-sized cost function: those of the
+// lib/brdf labels (lambert 3, oren_nayar 4, phong/blinn_phong/cosine_lobe 7,
+// cook_torrance 8, lafortune-L 3+6L, lafortune-L-aniso 3+7L). NumParams() is a
+// runtime value, so the list cannot be derived here; fit_test checks that every
+// label lands in it, and an unlisted count still works via the dynamic path.
+using FixedSizes = std::integer_sequence<int, 3, 4, 7, 8, 9, 10, 15, 17, 21, 24>;
+
+// Residual r robustified to r sqrt(rho(r^2) / r^2) with the Cauchy loss
+// rho(s) = c^2 log(1 + s / c^2) (as ceres::CauchyLoss), so that its square is
+// rho(r^2). A ceres::LossFunction would act on the squared norm of a whole
+// block, i.e. of many samples at once, and could not single out outliers.
+template <class T>
+T CauchyResidual(const T& r, double c) {
+  using std::log1p;
+  using std::sqrt;
+  const T u = r * r / (c * c);
+  // log1p(u)/u -> 1 as u -> 0; the series avoids 0/0 and its NaN derivative.
+  const T ratio = u < T(1e-8) ? T(1.0) - u * 0.5 : log1p(u) / u;
+  return r * sqrt(ratio);
+}
+
+struct BatchResidual {
+  ModelSpec spec;
+  const double* rows;  // PackedSamples rows of this batch
+  int count;
+  double robust_scale;  // 0: plain residuals
+
+  template <class T>
+  bool Eval(const T* p, T* residuals) const {
+    for (int i = 0; i < count; ++i) {
+      const double* s = rows + i * PackedSamples::kStride;
+      const Vec3T<T> wi{T(s[0]), T(s[1]), T(s[2])};
+      const Vec3T<T> wo{T(s[3]), T(s[4]), T(s[5])};
+      T f[3];
+      EvalModel(spec, p, wi, wo, f);
+      for (int c = 0; c < 3; ++c) {
+        const T r = f[c] * s[6] - s[7 + c];
+        residuals[3 * i + c] = robust_scale > 0 ? CauchyResidual(r, robust_scale) : r;
+      }
+    }
+    return true;  // non-finite residuals are caught by Ceres (step rejected / FAILURE)
+  }
+};
+
+template <int N>
+struct FixedBatchResidual : BatchResidual {
+  template <class T>
+  bool operator()(const T* p, T* residuals) const { return Eval(p, residuals); }
+};
+
+struct DynamicBatchResidual : BatchResidual {
+  template <class T>
+  bool operator()(T const* const* p, T* residuals) const { return Eval(p[0], residuals); }
+};
+
+template <int... Ns>
+ceres::CostFunction* MakeFixed(std::integer_sequence<int, Ns...>, const BatchResidual& r) {
+  const int n = r.spec.NumParams();
+  ceres::CostFunction* cost = nullptr;
+  (void)((n == Ns && (cost = new ceres::AutoDiffCostFunction<FixedBatchResidual<Ns>, ceres::DYNAMIC, Ns>(
+                          new FixedBatchResidual<Ns>{r}, 3 * r.count))) ||
+         ...);
+  return cost;
+}
+
+template <int... Ns>
+constexpr bool IsFixed(std::integer_sequence<int, Ns...>, int n) {
+  return ((n == Ns) || ...);
+}
+
+}  // namespace
+
+PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int64_t>& ids) {
+  PackedSamples packed;
+  packed.values.resize(ids.size() * kStride);
+  double* out = packed.values.data();
+  for (const int64_t s : ids) {
+    for (int k = 0; k < 3; ++k) {
+      out[k] = set.wi[k][s];
+      out[3 + k] = set.wo[k][s];
+      out[7 + k] = set.y[k][s];
+    }
+    out[6] = set.geom[s];
+    out += kStride;
+  }
+  return packed;
+}
+
+ceres::CostFunction* MakeBatchCost(const ModelSpec& spec, const PackedSamples& packed, int64_t begin, int count,
+                                   double robust_scale) {
+  const BatchResidual r{spec, packed.row(begin), count, robust_scale};
+  if (ceres::CostFunction* cost = MakeFixed(FixedSizes{}, r)) return cost;
+  // Stride 8: jets of 8 derivatives per pass over the residuals.
+  auto* cost = new ceres::DynamicAutoDiffCostFunction<DynamicBatchResidual, 8>(new DynamicBatchResidual{r});
+  cost->AddParameterBlock(spec.NumParams());
+  cost->SetNumResiduals(3 * count);
+  return cost;
+}
+
+bool HasFixedSizeCost(int num_params) { return IsFixed(FixedSizes{}, num_params); }
+
+}  // namespace svbrdf

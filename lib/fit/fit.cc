@@ -1,0 +1,156 @@
+#include "fit/fit.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/rng.h"
+#include "fit/batch_cost.h"
+#include "fit/starts.h"
+
+namespace svbrdf {
+namespace {
+
+// Samples per residual block: large enough that Ceres' per-block overhead is
+// negligible, small enough for ~600 blocks at 40k samples to spread over threads.
+constexpr int kBatch = 64;
+// Starts are compared on this many samples with few iterations; only the best
+// is refined on all samples (the screening costs a fraction of one full fit).
+constexpr int64_t kScreenSamples = 4000;
+constexpr int kScreenIterations = 25;
+
+// The samples to fit in seeded-hash order: a deterministic random subset of at
+// most max_samples that does not depend on the order of `ids`, and whose
+// prefixes are random subsets too (used for screening starts).
+std::vector<int64_t> SelectSamples(const SampleSet& samples, const std::vector<int64_t>& ids,
+                                   const FitOptions& options) {
+  const int64_t n = ids.empty() ? samples.size() : static_cast<int64_t>(ids.size());
+  std::vector<std::pair<uint64_t, int64_t>> keyed(n);
+  for (int64_t i = 0; i < n; ++i) {
+    const int64_t s = ids.empty() ? i : ids[i];
+    keyed[i] = {StreamSeed(options.seed, static_cast<uint64_t>(s)), s};
+  }
+  const int64_t m = std::min(n, options.max_samples);
+  std::nth_element(keyed.begin(), keyed.begin() + m, keyed.end());
+  keyed.resize(m);
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<int64_t> out(m);
+  for (int64_t i = 0; i < m; ++i) out[i] = keyed[i].second;
+  return out;
+}
+
+struct Solution {
+  std::vector<double> params;
+  ceres::Solver::Summary summary;
+  // Ceres did not fail and left finite parameters and cost.
+  bool usable() const {
+    return summary.termination_type != ceres::FAILURE && summary.termination_type != ceres::USER_FAILURE &&
+           std::isfinite(summary.final_cost) &&
+           std::all_of(params.begin(), params.end(), [](double v) { return std::isfinite(v); });
+  }
+};
+
+// Levenberg–Marquardt on the first `count` packed samples from `start`.
+Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const PackedSamples& packed,
+               int64_t count, std::vector<double> start, const FitOptions& options, int max_iterations) {
+  Solution solution{std::move(start), {}};
+  double* p = solution.params.data();
+  ceres::Problem problem;  // owns the cost functions
+  // No ceres::LossFunction: it would act per block of kBatch samples; the
+  // robust loss is applied per residual inside the cost function instead.
+  for (int64_t b = 0; b < count; b += kBatch) {
+    const int size = static_cast<int>(std::min<int64_t>(kBatch, count - b));
+    problem.AddResidualBlock(MakeBatchCost(spec, packed, b, size, options.robust_scale), nullptr, p);
+  }
+  for (int i = 0; i < static_cast<int>(info.size()); ++i) {
+    if (std::isfinite(info[i].lower)) problem.SetParameterLowerBound(p, i, info[i].lower);
+    if (std::isfinite(info[i].upper)) problem.SetParameterUpperBound(p, i, info[i].upper);
+  }
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // <= 24 parameters: J^T J is tiny
+  so.max_num_iterations = max_iterations;
+  so.function_tolerance = options.function_tolerance;
+  so.num_threads = ResolveThreads(options.threads);
+  so.logging_type = ceres::SILENT;
+  ceres::Solve(so, &problem, &solution.summary);
+  return solution;
+}
+
+}  // namespace
+
+void FitOptions::Check() const {
+  auto fail = [](const char* name, auto value, const char* rule) {
+    throw Error(Msg("FitOptions.", name, " = ", value, ": must be ", rule));
+  };
+  if (max_iterations < 1) fail("max_iterations", max_iterations, ">= 1");
+  if (!(function_tolerance >= 0 && function_tolerance < 1)) fail("function_tolerance", function_tolerance, "in [0, 1)");
+  if (!(robust_scale >= 0 && std::isfinite(robust_scale))) fail("robust_scale", robust_scale, "finite and >= 0");
+  if (max_samples < 1) fail("max_samples", max_samples, ">= 1");
+  if (threads < 0) fail("threads", threads, ">= 0 (0 = all cores)");
+}
+
+FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::vector<int64_t>& ids,
+                   const FitOptions& options, const std::vector<double>& initial) {
+  options.Check();
+  const int num_params = spec.NumParams();
+  if (!initial.empty() && static_cast<int>(initial.size()) != num_params)
+    throw Error(Msg("FitModel: ", initial.size(), " initial parameters given for model ", spec.Label(),
+                    ", which has ", num_params));
+  const std::vector<ParamInfo> info = spec.Params();
+  const std::vector<int64_t> selected = SelectSamples(samples, ids, options);
+  const PackedSamples packed = PackedSamples::FromIds(samples, selected);
+  const int64_t n = packed.size();
+  const int64_t screen = std::min(n, kScreenSamples);
+
+  std::vector<double> base = initial.empty() ? spec.InitialParams() : initial;
+  ClampToBounds(spec, &base);
+  FitResult result;
+  result.params = base;
+  if (n == 0) {
+    result.message = "no samples to fit";
+    return result;
+  }
+  // A caller's start is kept as given; the default one gets least-squares amplitudes.
+  if (initial.empty()) FitAmplitudes(spec, packed, screen, &base);
+  std::vector<std::vector<double>> starts = ShapeStarts(spec, base);
+  for (size_t k = 1; k < starts.size(); ++k) FitAmplitudes(spec, packed, screen, &starts[k]);
+
+  std::vector<double> best = starts[0];
+  if (starts.size() > 1) {
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (const auto& start : starts) {
+      Solution s = Solve(spec, info, packed, screen, start, options, std::min(options.max_iterations, kScreenIterations));
+      if (s.usable() && s.summary.final_cost < best_cost) {
+        best_cost = s.summary.final_cost;
+        best = std::move(s.params);
+      }
+    }
+  }
+  const Solution final = Solve(spec, info, packed, n, best, options, options.max_iterations);
+  const ceres::Solver::Summary& summary = final.summary;
+  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  result.message = summary.message;
+  if (final.usable()) {
+    result.params = final.params;
+    result.converged = summary.termination_type == ceres::CONVERGENCE;
+  } else {
+    result.params = best;
+    result.message = Msg("fit failed (", ceres::TerminationTypeToString(summary.termination_type), "): ",
+                         summary.message);
+  }
+  result.cost = SumSquaredResidual(spec, result.params, samples, selected, options.threads, nullptr) / (3.0 * n);
+  if (!std::isfinite(result.cost)) {
+    result.converged = false;
+    result.message += " (non-finite residuals)";
+  }
+  return result;
+}
+
+}  // namespace svbrdf

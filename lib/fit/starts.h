@@ -1,0 +1,29 @@
+// Starting points for the non-convex model fits. Models are linear in their
+// colour amplitudes (rd, rs, rho) and non-linear in a few shape parameters
+// (exponents, roughness), so a start is a guess of the shape parameters with
+// the amplitudes solved by linear least squares for that shape.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "brdf/model.h"
+#include "fit/batch_cost.h"
+
+namespace svbrdf {
+
+// Clamps each parameter into [lower, upper] of spec.Params().
+void ClampToBounds(const ModelSpec& spec, std::vector<double>* params);
+
+// Sets the colour parameters (names ending _r/_g/_b) to their per-channel
+// linear least-squares estimate over the first `count` samples of `packed`,
+// holding the other parameters fixed, clamped into bounds. The models are
+// affine in those parameters, so the basis responses come from EvalModel.
+void FitAmplitudes(const ModelSpec& spec, const PackedSamples& packed, int64_t count, std::vector<double>* params);
+
+// `base` first, then copies of it with the shape parameters spread over their
+// typical range (Lafortune/Phong exponents 5, 30, 200 — multi-lobe Lafortune
+// gets a different exponent per lobe; Cook–Torrance roughness 0.05, 0.15, 0.4).
+// Models without lobes get only `base`. Values are clamped into bounds.
+std::vector<std::vector<double>> ShapeStarts(const ModelSpec& spec, const std::vector<double>& base);
+
+}  // namespace svbrdf
