@@ -293,8 +293,7 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
   gto.seed = StreamSeed(o.seed, 1, o.material.seed);
   Material gt = MakeGroundTruth(mesh, gto);
   SaveMaterial(gt, (tmp / "gt").string());
-  WriteImage((tmp / "gt" / "material_id.png").string(), gt.material_id, PixelFormat::kUInt8, ColorSpace::kLinear);
-  WriteFileAtomic((tmp / "lights" / "lamp.ies").string(), kLampIes);
+    WriteFileAtomic((tmp / "lights" / "lamp.ies").string(), kLampIes);
 
   Rng rng(StreamSeed(o.seed, 2));
   Scene truth;
