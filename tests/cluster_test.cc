@@ -1,0 +1,183 @@
+// Clustering building blocks: NNLS, and the progressive clustering on samples
+// generated in code (known materials, known texel labels).
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "cluster/nnls.h"
+#include "cluster/reconstruct.h"
+#include "core/error.h"
+#include "core/rng.h"
+
+namespace svbrdf {
+namespace {
+
+TEST(Nnls, MatchesBruteForceOverActiveSets) {
+  Rng rng(3);
+  std::normal_distribution<double> g;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = 1 + trial % 5, m = 12;
+    Eigen::MatrixXd A(m, n);
+    Eigen::VectorXd b(m);
+    for (int i = 0; i < m; ++i) {
+      b[i] = g(rng);
+      for (int j = 0; j < n; ++j) A(i, j) = g(rng);
+    }
+    const Eigen::VectorXd w = NnlsNormal(A.transpose() * A, A.transpose() * b);
+    ASSERT_TRUE((w.array() >= 0).all());
+    // Brute force: best unconstrained solution over every support set that is feasible.
+    double best = (b).squaredNorm();
+    for (int mask = 1; mask < (1 << n); ++mask) {
+      std::vector<int> idx;
+      for (int j = 0; j < n; ++j)
+        if (mask & (1 << j)) idx.push_back(j);
+      Eigen::MatrixXd As(m, idx.size());
+      for (size_t k = 0; k < idx.size(); ++k) As.col(k) = A.col(idx[k]);
+      const Eigen::VectorXd x = As.colPivHouseholderQr().solve(b);
+      if ((x.array() >= 0).all()) best = std::min(best, (As * x - b).squaredNorm());
+    }
+    EXPECT_NEAR((A * w - b).squaredNorm(), best, 1e-8 * (1 + best)) << "trial " << trial;
+  }
+}
+
+// Samples of `nt` texels; texel t has material label[t] from `basis`, seen
+// from 24 random direction pairs with 0.5 % noise.
+SampleSet MakeSamples(const std::vector<BasisMaterial>& basis, const std::vector<int>& label, uint64_t seed) {
+  SampleSet s;
+  s.num_texels = static_cast<int>(label.size());
+  s.texel_begin.push_back(0);
+  Rng rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::normal_distribution<double> g;
+  auto hemi = [&] {
+    const double z = 0.2 + 0.8 * u(rng), phi = 2 * kPi * u(rng), r = std::sqrt(1 - z * z);
+    return Vec3(r * std::cos(phi), r * std::sin(phi), z);
+  };
+  for (size_t t = 0; t < label.size(); ++t) {
+    for (int i = 0; i < 24; ++i) {
+      Vec3 wi = hemi(), wo = hemi();
+      if (i % 3 == 0) wo = Vec3(-wi.x(), -wi.y(), wi.z());  // near-specular views, as highlights give
+      const Rgb f = EvalModelD(basis[label[t]].spec, basis[label[t]].params.data(), wi, wo);
+      const float fwi[3] = {float(wi.x()), float(wi.y()), float(wi.z())};
+      const float fwo[3] = {float(wo.x()), float(wo.y()), float(wo.z())};
+      const float geom = float(wi.z());
+      float y[3];
+      for (int c = 0; c < 3; ++c) y[c] = float(f[c] * geom * (1 + 0.005 * g(rng)));
+      s.Push(int32_t(t), i, fwi, fwo, geom, y);
+    }
+    s.texel_begin.push_back(s.size());
+  }
+  return s;
+}
+
+BasisMaterial Lambert(double r, double g, double b) {
+  BasisMaterial m;
+  m.spec = ModelSpec::FromLabel("lambert");
+  m.params = {r, g, b};
+  return m;
+}
+
+BasisMaterial Glossy(double rd, double rho, double n) {
+  BasisMaterial m;
+  m.spec = ModelSpec::FromLabel("lafortune-1");
+  m.params = m.spec.InitialParams();
+  const auto info = m.spec.Params();
+  for (size_t i = 0; i < info.size(); ++i) {
+    const std::string& k = info[i].name;
+    if (k.rfind("rd_", 0) == 0) m.params[i] = rd;
+    if (k.find("rho") != std::string::npos) m.params[i] = rho;
+    if (k == "lobe0.cx") m.params[i] = -1;
+    if (k == "lobe0.cz") m.params[i] = 1;
+    if (k == "lobe0.n") m.params[i] = n;
+  }
+  return m;
+}
+
+Atlas LineAtlas(int n) {
+  Atlas a;
+  a.width = n;
+  a.height = 1;
+  for (int t = 0; t < n; ++t) {
+    Texel tx;
+    tx.x = t;
+    a.texels.push_back(tx);
+    a.index.push_back(t);
+  }
+  return a;
+}
+
+ReconstructOptions Quiet() {
+  ReconstructOptions o;
+  o.progress = false;
+  o.threads = 2;
+  o.candidate_models = {"lambert", "lafortune-1", "lafortune-2"};
+  return o;
+}
+
+TEST(Cluster, FindsTheTrueNumberOfMaterials) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Glossy(0.1, 2.0, 40), Lambert(0.1, 0.3, 0.6)};
+  for (int k : {1, 2, 3}) {
+    std::vector<int> label(300);
+    for (size_t t = 0; t < label.size(); ++t) label[t] = int(t * k / label.size());
+    const SampleSet s = MakeSamples(truth, label, 10 + k);
+    const SvbrdfEstimate est = EstimateSvbrdf(s, LineAtlas(300), Quiet());
+    EXPECT_EQ(int(est.basis.size()), k) << "true count " << k;
+    // Every texel's label agrees with the truth up to a permutation: same partition.
+    for (size_t t = 1; t < label.size(); ++t)
+      EXPECT_EQ(label[t] == label[t - 1], est.label[t] == est.label[t - 1]) << "texel " << t;
+  }
+}
+
+TEST(Cluster, DoesNotChooseMoreLobesThanTheTruth) {
+  const std::vector<BasisMaterial> truth = {Glossy(0.2, 1.5, 30)};
+  const SampleSet s = MakeSamples(truth, std::vector<int>(200, 0), 5);
+  const SvbrdfEstimate est = EstimateSvbrdf(s, LineAtlas(200), Quiet());
+  ASSERT_EQ(est.basis.size(), 1u);
+  EXPECT_EQ(est.basis[0].spec.Label(), "lafortune-1");
+}
+
+TEST(Cluster, ForcedCountsAndModelsAreHonoured) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.5, 0.5, 0.5)};
+  const SampleSet s = MakeSamples(truth, std::vector<int>(100, 0), 6);
+  ReconstructOptions o = Quiet();
+  o.force_clusters = 2;
+  o.force_model = "lafortune-2";
+  const SvbrdfEstimate est = EstimateSvbrdf(s, LineAtlas(100), o);
+  EXPECT_EQ(est.basis.size(), 2u);
+  for (const auto& b : est.basis) EXPECT_EQ(b.spec.Label(), "lafortune-2");
+}
+
+TEST(Cluster, SparseTexelsGetNeighbourWeightsAndLowConfidence) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.5, 0.4, 0.3)};
+  SampleSet s = MakeSamples(truth, std::vector<int>(50, 0), 8);
+  // Strip texel 20 of all its samples.
+  SampleSet t;
+  t.num_texels = s.num_texels;
+  t.texel_begin.push_back(0);
+  for (int x = 0; x < s.num_texels; ++x) {
+    if (x != 20)
+      for (int64_t i = s.texel_begin[x]; i < s.texel_begin[x + 1]; ++i) {
+        const float wi[3] = {s.wi[0][i], s.wi[1][i], s.wi[2][i]}, wo[3] = {s.wo[0][i], s.wo[1][i], s.wo[2][i]};
+        const float y[3] = {s.y[0][i], s.y[1][i], s.y[2][i]};
+        t.Push(x, s.image[i], wi, wo, s.geom[i], y);
+      }
+    t.texel_begin.push_back(t.size());
+  }
+  const SvbrdfEstimate est = EstimateSvbrdf(t, LineAtlas(50), Quiet());
+  EXPECT_EQ(est.confidence[20], 0.0f);
+  EXPECT_GT(est.confidence[10], 0.9f);
+  const int K = int(est.basis.size());
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(est.weights[(20 * K) * 3 + c], est.weights[(19 * K) * 3 + c], 0.05);
+}
+
+TEST(Cluster, RejectsBadOptions) {
+  ReconstructOptions o = Quiet();
+  o.max_clusters = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = Quiet();
+  o.candidate_models = {"no_such_model"};
+  EXPECT_THROW(o.Check(), Error);
+}
+
+}  // namespace
+}  // namespace svbrdf

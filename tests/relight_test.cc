@@ -1,0 +1,228 @@
+// Renderer checks against closed forms: a Lambertian sphere under a point
+// light, a hard shadow, the COLMAP pixel convention, and the mask silhouette.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "raytrace/sphere_mesh.h"
+#include "relight/relight.h"
+
+namespace svbrdf {
+namespace {
+
+constexpr double kRadius = 0.5;
+
+Material UniformMaterial(const Mesh& mesh, const std::string& label, const std::vector<std::pair<std::string, double>>& params) {
+  Material m;
+  m.mesh = mesh;
+  m.width = m.height = 4;
+  BasisMaterial b;
+  b.name = "m0";
+  b.spec = ModelSpec::FromLabel(label);
+  b.params = b.spec.InitialParams();
+  const auto info = b.spec.Params();
+  for (const auto& [name, value] : params)
+    for (size_t i = 0; i < info.size(); ++i)
+      if (info[i].name == name) b.params[i] = value;
+  m.basis.push_back(b);
+  m.weights.emplace_back(4, 4, 3, 1.0f);
+  return m;
+}
+
+Mesh Sphere(double radius, const Vec3& centre, int rings = 200) {
+  Mesh m = MakeUvSphere(rings, 2 * rings);
+  for (Vec3& p : m.positions) p = centre + radius * p;
+  return m;
+}
+
+Scene OneView(const Vec3& eye, const Light& light, int w = 160, int h = 120, double f = 150) {
+  Scene s;
+  Camera cam;
+  cam.id = 1;
+  cam.model = CameraModelId::kPinhole;
+  cam.width = w;
+  cam.height = h;
+  cam.params = {f, f, w / 2.0, h / 2.0};
+  s.cameras = {cam};
+  s.lights = {light};
+  ImageEntry e;
+  e.file = "images/0000.exr";
+  e.camera = 1;
+  e.light = light.id;
+  e.cam_from_world = Rigid3::LookAt(eye, Vec3::Zero(), Vec3::UnitY());
+  s.images = {e};
+  return s;
+}
+
+Light PointLight(const Vec3& p, double intensity) {
+  Light l;
+  l.id = 1;
+  l.type = LightType::kPoint;
+  l.position = p;
+  l.intensity = Rgb::Constant(intensity);
+  return l;
+}
+
+// Ray-sphere intersection of a pixel centre's ray, for the analytic reference.
+bool AnalyticHit(const Scene& s, double px, double py, double radius, Vec3* x) {
+  const ImageEntry& e = s.images[0];
+  const Rigid3 wfc = e.cam_from_world.Inverse();
+  const Vec3 o = wfc.translation;
+  const Vec3 d = (wfc.rotation * s.cameras[0].Unproject(Vec2(px, py))).normalized();
+  const double b = o.dot(d), c = o.squaredNorm() - radius * radius, disc = b * b - c;
+  if (disc < 0) return false;
+  *x = o + (-b - std::sqrt(disc)) * d;
+  return true;
+}
+
+TEST(Relight, LambertianSphereMatchesClosedForm) {
+  const double rd = 0.6, intensity = 5.0;
+  const Mesh mesh = Sphere(kRadius, Vec3::Zero());
+  const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", rd}, {"rd_g", rd}, {"rd_b", rd}});
+  const Scene s = OneView(Vec3(0, 0.3, 2.0), PointLight(Vec3(1.0, 1.5, 1.5), intensity));
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions ro;
+  ro.progress = false;
+  const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+  double max_rel = 0, sum_rel = 0;
+  int n = 0;
+  for (int y = 0; y < v.color.height; ++y)
+    for (int x = 0; x < v.color.width; ++x) {
+      Vec3 p;
+      if (!AnalyticHit(s, x + 0.5, y + 0.5, kRadius, &p)) continue;
+      const Vec3 nrm = p.normalized(), l = s.lights[0].position - p;
+      const double cos_i = nrm.dot(l.normalized());
+      const Vec3 eye = s.images[0].cam_from_world.CentreInWorld();
+      // Away from the silhouette and the terminator, where tessellation dominates.
+      if (cos_i < 0.1 || nrm.dot((eye - p).normalized()) < 0.2) continue;
+      const double expected = rd / kPi * intensity * cos_i / l.squaredNorm();
+      const double rel = std::abs(v.color.at(x, y, 1) - expected) / expected;
+      max_rel = std::max(max_rel, rel);
+      sum_rel += rel;
+      ++n;
+    }
+  ASSERT_GT(n, 3000);
+  RecordProperty("max_relative_error", std::to_string(max_rel));
+  std::printf("Lambertian sphere: %d pixels, max relative error %.2e, mean %.2e\n", n, max_rel, sum_rel / n);
+  EXPECT_LT(max_rel, 2e-3);
+  EXPECT_LT(sum_rel / n, 3e-4);
+}
+
+TEST(Relight, HardShadowBehindABlocker) {
+  // A floor quad at y = 0, a small blocker quad at y = 0.5, light above.
+  Mesh mesh;
+  auto quad = [&](double y, double h) {
+    const int b = static_cast<int>(mesh.positions.size());
+    mesh.positions.insert(mesh.positions.end(), {Vec3(-h, y, -h), Vec3(-h, y, h), Vec3(h, y, h), Vec3(h, y, -h)});
+    mesh.faces.emplace_back(b, b + 1, b + 2);
+    mesh.faces.emplace_back(b, b + 2, b + 3);
+  };
+  quad(0.0, 2.0);
+  quad(0.5, 0.1);
+  mesh.ComputeNormals();
+  const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", 0.5}, {"rd_g", 0.5}, {"rd_b", 0.5}});
+  Scene s = OneView(Vec3(0, 3, 0.001), PointLight(Vec3(0, 2.0, 0), 4.0), 101, 101, 60);
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions ro;
+  ro.progress = false;
+  const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+  // The shadow of the blocker's 0.2 m square on the floor is 0.2 * 2/1.5 wide
+  // around the origin; the blocker itself is lit (seen from above).
+  int shadow = 0, lit = 0;
+  for (int y = 0; y < v.color.height; ++y)
+    for (int x = 0; x < v.color.width; ++x) {
+      const Vec3 dir = s.images[0].cam_from_world.Inverse().rotation * s.cameras[0].Unproject(Vec2(x + 0.5, y + 0.5));
+      const Vec3 o = s.images[0].cam_from_world.CentreInWorld();
+      const Vec3 floor = o + dir * (-o.y() / dir.y());
+      const double half = 0.1 * 2.0 / 1.5;
+      const Vec3 on_blocker = o + dir * ((0.5 - o.y()) / dir.y());
+      if (std::abs(on_blocker.x()) < 0.1 && std::abs(on_blocker.z()) < 0.1) continue;  // sees the blocker
+      if (std::abs(floor.x()) < half * 0.95 && std::abs(floor.z()) < half * 0.95) {
+        EXPECT_EQ(v.color.at(x, y, 0), 0.0f) << "pixel " << x << "," << y << " should be in shadow";
+        ++shadow;
+      } else if (std::abs(floor.x()) > half * 1.05 || std::abs(floor.z()) > half * 1.05) {
+        const Vec3 l = s.lights[0].position - floor;
+        const double expected = 0.5 / kPi * 4.0 * l.normalized().y() / l.squaredNorm();
+        EXPECT_NEAR(v.color.at(x, y, 0), expected, 1e-4 * expected + 1e-7);
+        ++lit;
+      }
+    }
+  EXPECT_GT(shadow, 0);
+  EXPECT_GT(lit, 1000);
+}
+
+TEST(Relight, ProjectionFollowsColmapPixelConvention) {
+  // A tiny sphere at known world points: the centroid of its mask (pixel
+  // centres at +0.5) lands on the camera's projection of its centre.
+  for (const Vec3& c : {Vec3(0.1, -0.05, 0.0), Vec3(-0.3, 0.2, 0.1)}) {
+    const Mesh mesh = Sphere(0.02, c, 40);
+    const Material mat = UniformMaterial(mesh, "lambert", {});
+    const Scene s = OneView(Vec3(0, 0, 3.0), PointLight(Vec3(0, 0, 3), 1.0), 200, 150, 500);
+    RayTracer tracer(mesh);
+    MaterialShader shader(mat);
+    RelightOptions ro;
+    ro.progress = false;
+    const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+    double sx = 0, sy = 0, n = 0;
+    for (int y = 0; y < v.mask.height; ++y)
+      for (int x = 0; x < v.mask.width; ++x)
+        if (v.mask.at(x, y, 0) > 0) sx += x + 0.5, sy += y + 0.5, n += 1;
+    ASSERT_GT(n, 10);
+    const Vec2 expected = s.cameras[0].Project(s.images[0].cam_from_world * c);
+    EXPECT_NEAR(sx / n, expected.x(), 0.15);
+    EXPECT_NEAR(sy / n, expected.y(), 0.15);
+  }
+}
+
+TEST(Relight, MaskMatchesAnalyticSilhouette) {
+  const Mesh mesh = Sphere(kRadius, Vec3::Zero());
+  const Material mat = UniformMaterial(mesh, "lambert", {});
+  const Scene s = OneView(Vec3(0.2, 0.4, 1.8), PointLight(Vec3(0, 2, 2), 1.0));
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions ro;
+  ro.progress = false;
+  const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+  long inter = 0, uni = 0;
+  for (int y = 0; y < v.mask.height; ++y)
+    for (int x = 0; x < v.mask.width; ++x) {
+      Vec3 p;
+      const bool a = AnalyticHit(s, x + 0.5, y + 0.5, kRadius, &p), b = v.mask.at(x, y, 0) > 0;
+      inter += a && b;
+      uni += a || b;
+    }
+  const double iou = double(inter) / uni;
+  std::printf("mask IoU vs analytic silhouette: %.5f\n", iou);
+  EXPECT_GT(iou, 0.995);
+}
+
+TEST(Relight, DeterministicWithSeedAndThreads) {
+  const Mesh mesh = Sphere(kRadius, Vec3::Zero(), 40);
+  const Material mat = UniformMaterial(mesh, "cook_torrance-ggx", {{"roughness", 0.2}});
+  const Scene s = OneView(Vec3(0, 0.3, 2.0), PointLight(Vec3(1.0, 1.5, 1.5), 5.0), 64, 48, 60);
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions a;
+  a.progress = false;
+  a.samples_per_pixel = 3;
+  a.threads = 1;
+  RelightOptions b = a;
+  b.threads = 2;
+  const RenderedView va = RenderView(tracer, shader, s, 0, a), vb = RenderView(tracer, shader, s, 0, b);
+  EXPECT_EQ(va.color.pixels, vb.color.pixels);
+  RelightOptions c = a;
+  c.seed = 99;
+  EXPECT_NE(va.color.pixels, RenderView(tracer, shader, s, 0, c).color.pixels);
+}
+
+TEST(Relight, RejectsBadOptions) {
+  RelightOptions o;
+  o.samples_per_pixel = 0;
+  EXPECT_THROW(o.Check(), Error);
+}
+
+}  // namespace
+}  // namespace svbrdf
