@@ -21,7 +21,7 @@ namespace {
 constexpr int kBatch = 64;
 // Starts are compared on this many samples with few iterations; only the best
 // is refined on all samples (the screening costs a fraction of one full fit).
-constexpr int64_t kScreenSamples = 4000;
+constexpr int64_t kScreenSamples = 2000;
 constexpr int kScreenIterations = 25;
 
 // The samples to fit in seeded-hash order: a deterministic random subset of at
