@@ -25,7 +25,7 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--max-clusters", job->estimate.max_clusters, "upper bound on basis materials");
   c->add_option("--clusters", job->estimate.force_clusters, "force exactly this many basis materials");
   c->add_option("--min-improvement", job->estimate.min_improvement, "relative held-out error drop needed to keep a split");
-  c->add_option("--robust", job->estimate.fit.robust_scale, "Cauchy loss scale (0 = least squares)");
+  c->add_option("--robust", job->estimate.robust_scale, "Cauchy loss scale of cluster fits (-1 = automatic, 0 = least squares)");
   c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
   c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");

@@ -2,6 +2,8 @@
 #include <cstdio>
 #include <exception>
 
+#include <glog/logging.h>
+
 #include "apps/svbrdf/commands.h"
 #include "core/error.h"
 
@@ -14,6 +16,9 @@ int main(int argc, char** argv) {
       "  svbrdf relight material capture/heldout/scene.json --out relit\n"
       "  svbrdf evaluate relit capture/heldout/scene.json"};
   app.require_subcommand(1);
+  // Ceres logs through glog; keep its informational lines off the terminal.
+  FLAGS_minloglevel = 2;
+  google::InitGoogleLogging(argv[0]);
   svbrdf::cli::Runner run;
   svbrdf::cli::RegisterSynth(app, &run);
   svbrdf::cli::RegisterRelight(app, &run);

@@ -31,19 +31,46 @@ void ReconstructOptions::Check() const {
 
 namespace {
 
+constexpr double kPriorSamples = 1.0;  // weight of the cluster prior in per-texel weights
+inline double Sq(double x) { return x * x; }
+
 // Everything the clustering works on: samples split into training and
 // held-out sets, per-texel sample counts, the current basis materials, their
 // predictions for every sample, and the texel-to-cluster assignment.
 class Clustering {
  public:
-  Clustering(const SampleSet& s, const ReconstructOptions& o) : s_(s), o_(o), nt_(s.num_texels) {
+  Clustering(const SampleSet& s, const Atlas& atlas, const ReconstructOptions& o)
+      : s_(s), o_(o), nt_(s.num_texels) {
+    // Whole photos are held out: held-out error then measures what relighting
+    // needs (new views and lights); per-sample hold-out leaks through
+    // neighbouring texels seen in the same photo.
+    int num_images = 0;
+    for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
+    std::vector<std::pair<double, int>> order;
+    for (int im = 0; im < num_images; ++im) order.emplace_back(HashUniform(o.seed, uint64_t(im), 0x401d), im);
+    std::sort(order.begin(), order.end());
+    std::vector<char> held_image(num_images, 0);
+    const int num_held = std::max(1, int(std::lround(o.holdout_fraction * num_images)));
+    for (int j = 0; j < num_held && num_images > 1; ++j) held_image[order[j].second] = 1;
     holdout_.resize(s.size());
     train_count_.assign(nt_, 0);
     for (int t = 0; t < nt_; ++t)
       for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
-        holdout_[i] = HashUniform(o.seed, uint64_t(t), uint64_t(s.image[i])) < o.holdout_fraction;
+        holdout_[i] = held_image[s.image[i]];
         train_count_[t] += !holdout_[i];
       }
+    // 8-neighbours in the atlas, for spatially pooled assignment and mixing.
+    neighbours_.resize(nt_);
+    for (int t = 0; t < nt_ && t < int(atlas.texels.size()); ++t) {
+      const Texel& tx = atlas.texels[t];
+      const int d[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+      for (const auto& dd : d) {
+        const int x = tx.x + dd[0], y = tx.y + dd[1];
+        if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
+        const int u = atlas.At(x, y);
+        if (u >= 0 && u < nt_) neighbours_[t].push_back(u);
+      }
+    }
     usable_.resize(nt_);
     for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_samples;
     if (std::count(usable_.begin(), usable_.end(), true) == 0)
@@ -83,8 +110,27 @@ class Clustering {
     for (int& a : assign_) a = a == k ? 0 : (a > k ? a - 1 : a);
   }
 
-  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init) const {
-    return FitModel(spec, s_, Ids(k, false), o_.fit, init);
+  // Cluster fits are robust by default: texels that the assignment got wrong
+  // (their samples missed the highlight that tells them apart) must not pull
+  // the basis material. The Cauchy scale is 3 robust sigmas (1.4826 MAD) of
+  // the residuals under the cluster's current basis (`scale_from`).
+  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int scale_from = -1) const {
+    FitOptions fo = o_.fit;
+    fo.robust_scale = o_.robust_scale;
+    const int ref = scale_from >= 0 ? scale_from : k;
+    if (fo.robust_scale < 0 && ref < K()) {
+      std::vector<float> r;
+      const std::vector<int64_t> ids = Ids(k, false);
+      const size_t step = std::max<size_t>(1, ids.size() / 20000);
+      for (size_t j = 0; j < ids.size(); j += step)
+        for (int c = 0; c < 3; ++c) r.push_back(std::abs(s_.y[c][ids[j]] - pred_[ref][3 * ids[j] + c]));
+      if (!r.empty()) {
+        std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+        fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
+      }
+    }
+    if (fo.robust_scale < 0) fo.robust_scale = 0;
+    return FitModel(spec, s_, Ids(k, false), fo, init);
   }
 
   // Squared error of texel t's samples under basis k with the best brightness
@@ -104,19 +150,41 @@ class Clustering {
     return std::max(0.0, yy - 2 * a * yp + a * a * pp);
   }
 
+  // Whether cluster k gained or lost texels in the last Assign().
+  bool MembershipChanged(int k) const { return k < int(changed_.size()) && changed_[k]; }
+
   // Assigns every usable texel to its best basis; returns how many changed.
+  // Errors are pooled over the texel and half-weighted 8-neighbours: materials
+  // are spatially coherent, and a texel's own few samples often miss the
+  // highlight that tells its material apart.
   long Assign() {
     std::vector<int> next(assign_);
+    const int K = this->K();
+    std::vector<double> err(size_t(nt_) * K, 0.0);
+    // Texels too sparse for fits are still assigned (their neighbours help),
+    // so that their weights mix the right materials.
     ParallelFor(nt_, o_.threads, [&](long t) {
-      if (!usable_[t]) return;
+      if (train_count_[t] == 0) return;
+      for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, false);
+    }, 512);
+    ParallelFor(nt_, o_.threads, [&](long t) {
+      if (train_count_[t] == 0) return;
       double best = 1e300;
-      for (int k = 0; k < K(); ++k) {
-        const double e = ScaledError(int(t), k, false);
+      for (int k = 0; k < K; ++k) {
+        double e = err[size_t(t) * K + k];
+        for (int u : neighbours_[t])
+          if (train_count_[u] > 0) e += 0.5 * err[size_t(u) * K + k];
         if (e < best) best = e, next[t] = k;
       }
     }, 512);
     long changed = 0;
-    for (int t = 0; t < nt_; ++t) changed += next[t] != assign_[t];
+    changed_.assign(K, 0);
+    for (int t = 0; t < nt_; ++t)
+      if (next[t] != assign_[t]) {
+        ++changed;
+        if (assign_[t] >= 0 && assign_[t] < K) changed_[assign_[t]] = 1;
+        changed_[next[t]] = 1;
+      }
     assign_ = next;
     return changed;
   }
@@ -133,7 +201,9 @@ class Clustering {
     if (residual) residual->assign(nt_, 0.0f);
     ParallelFor(nt_, o_.threads, [&](long t) {
       const int64_t b = s_.texel_begin[t], e = s_.texel_begin[t + 1];
-      if (e == b) return;
+      // Texels with too few training samples would overfit K weights; they
+      // are scored only when everything is fitted on all samples (final weights).
+      if (e == b || (!fit_on_all && !usable_[t])) return;
       Eigen::MatrixXd AtA[3], Atb[3];
       for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(K, K), Atb[c] = Eigen::MatrixXd::Zero(K, 1);
       for (int64_t i = b; i < e; ++i) {
@@ -145,6 +215,41 @@ class Clustering {
             for (int l = 0; l <= k; ++l) AtA[c](k, l) += pk * pred_[l][3 * i + c];
           }
       }
+      // Prior: the texel is its cluster's material at the brightness that fits
+      // it best, worth kPriorSamples samples. Without it, K free weights on a
+      // handful of samples overfit (seen: held-out error rising with K).
+      Eigen::VectorXd w0 = Eigen::VectorXd::Zero(K);
+      const int k0 = std::clamp(assign_[t], 0, K - 1);
+      double yp = 0, pp = 0, trace = 0;
+      int64_t nfit = 0;
+      for (int64_t i = b; i < e; ++i) {
+        if (!fit_on_all && holdout_[i]) continue;
+        ++nfit;
+        for (int c = 0; c < 3; ++c) yp += pred_[k0][3 * i + c] * s_.y[c][i], pp += Sq(pred_[k0][3 * i + c]);
+      }
+      w0[k0] = pp > 0 ? std::clamp(yp / pp, 0.5, 2.0) : 1.0;
+      for (int c = 0; c < 3; ++c) trace += AtA[c].trace();
+      const double lambda = kPriorSamples * trace / (3.0 * K * std::max<int64_t>(1, nfit)) + 1e-12;
+      for (int c = 0; c < 3; ++c) {
+        AtA[c].diagonal().array() += lambda;
+        Atb[c].col(0) += lambda * w0;
+      }
+      // Only materials of the texel's own and its neighbours' clusters mix:
+      // inside a region that is one material (at a free brightness), at a
+      // border a blend of two. Free mixing of all K on a few samples
+      // extrapolates badly to unseen light/view pairs (seen: false highlights).
+      std::vector<char> allowed(K, 0);
+      allowed[k0] = 1;
+      for (int u : neighbours_[t])
+        if (train_count_[u] > 0) allowed[std::clamp(assign_[u], 0, K - 1)] = 1;
+      for (int k = 0; k < K; ++k)
+        if (!allowed[k])
+          for (int c = 0; c < 3; ++c) {
+            AtA[c].row(k).setZero();
+            AtA[c].col(k).setZero();
+            AtA[c](k, k) = 1.0;
+            Atb[c](k) = 0.0;
+          }
       Eigen::VectorXd w[3];
       if (per_channel) {
         for (int c = 0; c < 3; ++c) {
@@ -200,65 +305,76 @@ class Clustering {
     return sse;
   }
 
-  // Lensch's split direction: principal component of the texels' linearised
-  // parameter deviations (see reconstruct.h, step 2b). Returns, for the
-  // texels of cluster k, the side (+1/-1) of each, 0 for others.
+  // Lensch's split of cluster k along the direction of largest parameter
+  // variance (see reconstruct.h, step 2b). Per texel, the parameters that the
+  // texel's own few samples do determine are estimated linearly: diffuse
+  // albedo per channel and the amplitude of the cluster's specular part
+  // (its model with rd = 0), by NNLS. These are whitened, split at the mean
+  // along their principal component, and the split is refined by 2-means.
+  // Returns +1/-1 for the texels of cluster k, 0 for the others.
   std::vector<int> SplitSides(int k) const {
     const BasisMaterial& b = basis_[k];
-    const int N = b.spec.NumParams();
-    const auto info = b.spec.Params();
+    BasisMaterial spec_part = b;
+    for (const char* name : {"rd_r", "rd_g", "rd_b"}) {
+      const auto info = b.spec.Params();
+      for (size_t q = 0; q < info.size(); ++q)
+        if (info[q].name == name) spec_part.params[q] = 0.0;
+    }
     std::vector<int> texels;
     for (int t = 0; t < nt_; ++t)
       if (usable_[t] && assign_[t] == k) texels.push_back(t);
-    // A deterministic subset keeps this cheap on large atlases.
-    const size_t max_texels = 6000;
-    if (texels.size() > max_texels) {
-      std::vector<int> sub;
-      for (size_t i = 0; i < max_texels; ++i) sub.push_back(texels[i * texels.size() / max_texels]);
-      texels.swap(sub);
-    }
     const size_t T = texels.size();
-    std::vector<Eigen::VectorXd> g(T, Eigen::VectorXd::Zero(N));
-    std::vector<Eigen::MatrixXd> Hs(T, Eigen::MatrixXd::Zero(N, N));
+    constexpr int F = 4;
+    Eigen::MatrixXd X(T, F);
     ParallelFor(long(T), o_.threads, [&](long j) {
       const int t = texels[j];
-      std::vector<double> p(b.params);
+      Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
+      Eigen::Vector4d Atb = Eigen::Vector4d::Zero();
       for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
         if (holdout_[i]) continue;
         const Vec3 wi(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
-        const Rgb f0 = EvalModelD(b.spec, p.data(), wi, wo) * s_.geom[i];
-        Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, N);
-        for (int q = 0; q < N; ++q) {
-          const double h = 1e-6 * std::max(1.0, std::abs(p[q]));
-          p[q] += h;
-          const Rgb f1 = EvalModelD(b.spec, p.data(), wi, wo) * s_.geom[i];
-          p[q] -= h;
-          J.col(q) = ((f1 - f0) / h).matrix();
+        const Rgb sp = EvalModelD(spec_part.spec, spec_part.params.data(), wi, wo) * s_.geom[i];
+        for (int c = 0; c < 3; ++c) {
+          Eigen::Vector4d row = Eigen::Vector4d::Zero();
+          row[c] = s_.geom[i] / kPi;
+          row[3] = sp[c];
+          AtA += row * row.transpose();
+          Atb += row * double(s_.y[c][i]);
         }
-        const Eigen::Vector3d r(s_.y[0][i] - f0[0], s_.y[1][i] - f0[1], s_.y[2][i] - f0[2]);
-        g[j] += J.transpose() * r;
-        Hs[j] += J.transpose() * J;
       }
-    }, 64);
-    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(N, N);
-    double n_total = 0;
-    for (size_t j = 0; j < T; ++j) H += Hs[j], n_total += train_count_[texels[j]];
-    H.diagonal() += Eigen::VectorXd::Constant(N, 1e-9 * (1.0 + H.diagonal().maxCoeff()));
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
-    Eigen::MatrixXd D(T, N);
-    for (size_t j = 0; j < T; ++j)
-      D.row(j) = (ldlt.solve(g[j]) * (n_total / std::max(1, train_count_[texels[j]]))).transpose();
-    // Whiten per parameter so the exponent's scale does not dominate.
-    const Eigen::RowVectorXd mean = D.colwise().mean();
-    D.rowwise() -= mean;
-    for (int q = 0; q < N; ++q) {
-      const double sd = std::sqrt(D.col(q).squaredNorm() / std::max<size_t>(1, T));
-      if (sd > 0) D.col(q) /= sd;
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(D.transpose() * D);
-    const Eigen::VectorXd v = eig.eigenvectors().col(N - 1);
+      AtA.diagonal().array() += 1e-9 * (1.0 + AtA.diagonal().maxCoeff());
+      X.row(j) = NnlsNormal(AtA, Atb).transpose();
+    }, 256);
     std::vector<int> side(nt_, 0);
-    for (size_t j = 0; j < T; ++j) side[texels[j]] = D.row(j).dot(v) >= 0 ? 1 : -1;
+    if (T < 4) return side;
+    // Whiten per feature, principal component, split at the mean.
+    const Eigen::RowVectorXd mean = X.colwise().mean();
+    Eigen::MatrixXd Z = X.rowwise() - mean;
+    for (int q = 0; q < F; ++q) {
+      const double sd = std::sqrt(Z.col(q).squaredNorm() / T);
+      Z.col(q) /= sd > 1e-12 ? sd : 1.0;
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Z.transpose() * Z);
+    const Eigen::VectorXd v = eig.eigenvectors().col(F - 1);
+    std::vector<int> g(T);
+    for (size_t j = 0; j < T; ++j) g[j] = Z.row(j).dot(v) >= 0 ? 1 : 0;
+    // 2-means refinement in the whitened feature space.
+    for (int it = 0; it < 20; ++it) {
+      Eigen::RowVectorXd c[2] = {Eigen::RowVectorXd::Zero(F), Eigen::RowVectorXd::Zero(F)};
+      double n[2] = {0, 0};
+      for (size_t j = 0; j < T; ++j) c[g[j]] += Z.row(j), n[g[j]] += 1;
+      if (n[0] == 0 || n[1] == 0) break;
+      c[0] /= n[0];
+      c[1] /= n[1];
+      bool changed = false;
+      for (size_t j = 0; j < T; ++j) {
+        const int gj = (Z.row(j) - c[1]).squaredNorm() < (Z.row(j) - c[0]).squaredNorm() ? 1 : 0;
+        changed |= gj != g[j];
+        g[j] = gj;
+      }
+      if (!changed) break;
+    }
+    for (size_t j = 0; j < T; ++j) side[texels[j]] = g[j] ? 1 : -1;
     return side;
   }
 
@@ -280,6 +396,8 @@ class Clustering {
   std::vector<int> train_count_;
   std::vector<char> usable_;
   std::vector<int> assign_;
+  std::vector<std::vector<int>> neighbours_;
+  std::vector<char> changed_;
   std::vector<BasisMaterial> basis_;
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
@@ -303,6 +421,7 @@ void Refine(Clustering& cl, int iterations) {
     }
     if (changed == 0 && it > 0) break;
     for (int k = 0; k < cl.K(); ++k) {
+      if (it > 0 && !cl.MembershipChanged(k)) continue;
       BasisMaterial b = cl.basis()[k];
       b.params = cl.Fit(b.spec, k, b.params).params;
       cl.SetBasis(k, b);
@@ -344,7 +463,7 @@ void FillFromNeighbours(const Atlas& atlas, int K, std::vector<float>* w, std::v
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o) {
   o.Check();
   if (samples.size() == 0) throw Error("reconstruct: no samples");
-  Clustering cl(samples, o);
+  Clustering cl(samples, atlas, o);
   SvbrdfEstimate est;
   const ModelSpec cluster_spec = ModelSpec::FromLabel(o.force_model.empty() ? o.cluster_model : o.force_model);
   auto log = [&](const std::string& s) {
@@ -357,9 +476,19 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   est.history.push_back({1, cl.TrainRmse(), heldout, true});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
-  // 2. Progressive splitting.
+  // 2. Progressive splitting. Every state (basis + assignment) is kept; a
+  // split that does not lower the held-out error is not final, since the
+  // next split may separate what this one mixed (patience of 2 splits).
+  struct State {
+    std::vector<BasisMaterial> basis;
+    std::vector<int> assign;
+    double heldout;
+  };
+  std::vector<State> states{{cl.basis(), cl.assign(), heldout}};
   const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
   std::vector<char> unsplittable;
+  double best = heldout;
+  int fails = 0;
   while (cl.K() < target) {
     unsplittable.resize(cl.K(), 0);
     int k = -1;
@@ -369,11 +498,13 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
       if (!unsplittable[j] && e > worst) worst = e, k = j;
     }
     if (k < 0) break;
-    const std::vector<BasisMaterial> saved_basis = cl.basis();
-    const std::vector<int> saved_assign = cl.assign();
     const std::vector<int> side = cl.SplitSides(k);
     const long plus = std::count(side.begin(), side.end(), 1), minus = std::count(side.begin(), side.end(), -1);
-    if (std::min(plus, minus) < 2) {
+    // A basis material must own a meaningful part of the surface: smaller
+    // groups are usually blends at region borders, which the mixing weights
+    // already represent.
+    const long usable_texels = std::count(cl.usable().begin(), cl.usable().end(), char(1));
+    if (std::min(plus, minus) < std::max<long>(2, long(o.min_cluster_fraction * usable_texels))) {
       unsplittable[k] = 1;
       continue;
     }
@@ -382,24 +513,41 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
       if (side[t] < 0) cl.assign()[t] = knew;
       else if (side[t] == 0 && cl.assign()[t] == k) cl.assign()[t] = -1;  // re-assigned below
     const BasisMaterial parent = cl.basis()[k];
-    cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params), knew));
+    cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params, k), knew));
     cl.SetBasis(k, MakeBasis(parent.spec, cl.Fit(parent.spec, k, parent.params), k));
     for (int& a : cl.assign()) if (a < 0) a = k;
     Refine(cl, o.refine_iterations);
     const double h = cl.HeldoutRmse();
-    const double drop = (heldout * heldout - h * h) / std::max(1e-300, heldout * heldout);
-    const bool accept = o.force_clusters > 0 || (cl.K() > int(saved_basis.size()) && drop >= o.min_improvement);
-    est.history.push_back({cl.K(), cl.TrainRmse(), h, accept});
-    log(Msg(cl.K(), " clusters: held-out RMSE ", h, " (", 100 * drop, " % lower error) ", accept ? "kept" : "rejected"));
-    if (!accept) {
-      // Undo: restore the previous basis and assignment, then stop.
-      while (cl.K() > 0 && cl.K() > int(saved_basis.size())) cl.RemoveBasis(cl.K() - 1);
-      for (int j = 0; j < int(saved_basis.size()); ++j) cl.SetBasis(j, saved_basis[j]);
-      cl.assign() = saved_assign;
-      break;
+    const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
+    est.history.push_back({cl.K(), cl.TrainRmse(), h, false});
+    log(Msg(cl.K(), " clusters: held-out RMSE ", h, " (", 100 * drop, " % below the best so far)"));
+    states.push_back({cl.basis(), cl.assign(), h});
+    if (o.force_clusters == 0) {
+      if (drop >= o.min_improvement) {
+        best = h;
+        fails = 0;
+      } else if (++fails >= 2) {
+        break;
+      }
     }
-    heldout = h;
   }
+  // The fewest clusters whose held-out squared error is within
+  // min_improvement of the best state's (or the forced count).
+  size_t chosen = states.size() - 1;
+  if (o.force_clusters == 0) {
+    double min_h = 1e300;
+    for (const State& st : states) min_h = std::min(min_h, st.heldout);
+    for (size_t j = 0; j < states.size(); ++j)
+      if (states[j].heldout * states[j].heldout <= min_h * min_h * (1 + o.min_improvement)) {
+        chosen = j;
+        break;
+      }
+  }
+  while (cl.K() > int(states[chosen].basis.size())) cl.RemoveBasis(cl.K() - 1);
+  for (size_t j = 0; j < states[chosen].basis.size(); ++j) cl.SetBasis(int(j), states[chosen].basis[j]);
+  cl.assign() = states[chosen].assign;
+  for (auto& h : est.history) h.accepted = h.clusters == cl.K();
+  log(Msg("chosen: ", cl.K(), " basis materials"));
 
   // 3. Model economy per cluster.
   std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
@@ -469,6 +617,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     const double spread_term = std::min(1.0, spread / 0.1);
     est.confidence[t] = float(count_term * spread_term);
     known[t] = (e - b) >= o.min_samples && spread > 0.02;
+    est.confidence[t] *= known[t] ? 1.0f : 0.25f;
   }
   for (int t = 0; t < nt; ++t)
     if (!known[t]) std::fill(est.weights.begin() + size_t(t) * K * 3, est.weights.begin() + size_t(t + 1) * K * 3, 0.0f);

@@ -21,7 +21,8 @@
 //     e. Held-out error: project every texel's training samples onto all basis
 //        materials with non-negative scalar weights (NNLS), measure the squared
 //        error on its held-out samples. Stop (and undo the split) when the
-//        relative drop is below `min_improvement`.
+//        relative drop is below `min_improvement`; a split whose smaller half has fewer than
+//        `min_cluster_fraction` of the texels is not made.
 //  3. Model economy per cluster: fit every candidate model to the cluster's
 //     training samples, keep the model with the fewest parameters whose
 //     held-out error is within `parsimony` of the best one; refine again.
@@ -47,13 +48,17 @@ struct ReconstructOptions {
                                                "cook_torrance-beckmann", "cook_torrance-ggx"};
   std::string force_model;
   std::string cluster_model = "lafortune-1";  // model used while splitting
-  int max_clusters = 8;
+  int max_clusters = 6;
   int force_clusters = 0;        // > 0: exactly this many basis materials (no stopping rule)
   double holdout_fraction = 0.2;
-  double min_improvement = 0.03; // stop splitting when held-out error drops by less (relative)
+  double min_improvement = 0.10; // a split must lower the held-out squared error by this (relative)
+  double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
   double parsimony = 0.01;       // prefer fewer parameters within this relative held-out error
-  int refine_iterations = 3;
+  int refine_iterations = 2;
   int min_samples = 4;           // per texel, for fits and confident weights
+  // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
+  // cluster's residuals), 0 = plain least squares, > 0 = this scale.
+  double robust_scale = -1.0;
   FitOptions fit;
   int threads = 0;
   uint64_t seed = 1;

@@ -20,7 +20,7 @@ struct FitOptions {
   double robust_scale = 0.0;
   // Fits use at most this many samples (a deterministic random subset) —
   // basis materials have few parameters, so more samples add time, not accuracy.
-  int64_t max_samples = 40000;
+  int64_t max_samples = 20000;
   int threads = 0;  // 0 = all cores
   uint64_t seed = 1;
   void Check() const;  // throws Error for out-of-range values

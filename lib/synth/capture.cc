@@ -142,11 +142,12 @@ Vec3 RandomUnit(Rng& rng) {
   return v.normalized();
 }
 
-// Camera direction i of n: a Fibonacci spiral over elevations -20..65 degrees.
+// Camera direction i of n: a Fibonacci spiral over elevations -40..70 degrees
+// (a turntable with cameras above and below), so every side is seen.
 Vec3 CameraDirection(int i, int n, double offset) {
   const double golden = kPi * (3.0 - std::sqrt(5.0));
   const double s = (i + 0.5) / n;
-  const double elev = (-20.0 + 85.0 * s) * kPi / 180.0;
+  const double elev = (-40.0 + 110.0 * s) * kPi / 180.0;
   const double az = golden * i + offset;
   return Vec3(std::cos(elev) * std::cos(az), std::sin(elev), std::cos(elev) * std::sin(az));
 }
@@ -193,8 +194,7 @@ void AddViews(const SynthOptions& o, int first, int count, Rng& rng, bool heldou
       // Light from a direction near the camera's, so the visible side is lit
       // and highlights appear, at 1.1x the camera distance.
       Vec3 ldir = (dir + 0.9 * RandomUnit(rng)).normalized();
-      if (ldir.y() < -0.3) ldir.y() = -ldir.y();
-      light.position = 1.1 * o.distance * ldir.normalized();
+      light.position = 1.1 * o.distance * ldir;
       light.intensity = Rgb::Constant(o.light_intensity);
       light.direction = (-light.position).normalized();
       if (mode == "point") {
