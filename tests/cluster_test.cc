@@ -108,7 +108,7 @@ Atlas LineAtlas(int n) {
 
 ReconstructOptions Quiet() {
   ReconstructOptions o;
-  o.progress = false;
+  o.progress = getenv("SVBRDF_VERBOSE") != nullptr;
   o.threads = 2;
   o.candidate_models = {"lambert", "lafortune-1", "lafortune-2"};
   return o;

@@ -112,25 +112,26 @@ class Clustering {
 
   // Cluster fits are robust by default: texels that the assignment got wrong
   // (their samples missed the highlight that tells them apart) must not pull
-  // the basis material. The Cauchy scale is 3 robust sigmas (1.4826 MAD) of
-  // the residuals under the cluster's current basis (`scale_from`).
-  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int scale_from = -1) const {
+  // the basis material. A least-squares fit first (so that true highlights
+  // are explained, not discarded as outliers), then a Cauchy refit from it
+  // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
+  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init) const {
+    const std::vector<int64_t> ids = Ids(k, false);
     FitOptions fo = o_.fit;
-    fo.robust_scale = o_.robust_scale;
-    const int ref = scale_from >= 0 ? scale_from : k;
-    if (fo.robust_scale < 0 && ref < K()) {
-      std::vector<float> r;
-      const std::vector<int64_t> ids = Ids(k, false);
-      const size_t step = std::max<size_t>(1, ids.size() / 20000);
-      for (size_t j = 0; j < ids.size(); j += step)
-        for (int c = 0; c < 3; ++c) r.push_back(std::abs(s_.y[c][ids[j]] - pred_[ref][3 * ids[j] + c]));
-      if (!r.empty()) {
-        std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
-        fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
-      }
+    fo.robust_scale = std::max(0.0, o_.robust_scale);
+    FitResult ls = FitModel(spec, s_, ids, fo, init);
+    if (o_.robust_scale >= 0 || ids.empty()) return ls;
+    std::vector<float> r;
+    const size_t step = std::max<size_t>(1, ids.size() / 20000);
+    for (size_t j = 0; j < ids.size(); j += step) {
+      const Rgb p = PredictSample(spec, ls.params.data(), s_, ids[j]);
+      for (int c = 0; c < 3; ++c) r.push_back(std::abs(s_.y[c][ids[j]] - float(p[c])));
     }
-    if (fo.robust_scale < 0) fo.robust_scale = 0;
-    return FitModel(spec, s_, Ids(k, false), fo, init);
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
+    fo.multi_start = false;
+    FitResult robust = FitModel(spec, s_, ids, fo, ls.params);
+    return robust.converged || !ls.converged ? robust : ls;
   }
 
   // Squared error of texel t's samples under basis k with the best brightness
@@ -193,7 +194,8 @@ class Clustering {
   // error on another (held-out, or all). Returns the summed squared error and
   // its sample-channel count; `weights` (texel-major [t][k][c]) when non-null.
   double MixtureError(bool per_channel, bool fit_on_all, bool eval_on_all, int64_t* count,
-                      std::vector<float>* weights, std::vector<float>* residual) const {
+                      std::vector<float>* weights, std::vector<float>* residual,
+                      std::vector<double>* per_texel = nullptr) const {
     const int K = this->K();
     std::vector<double> sse(nt_, 0.0);
     std::vector<int64_t> cnt(nt_, 0);
@@ -280,12 +282,13 @@ class Clustering {
       if (residual && n) (*residual)[t] = float(std::sqrt(err / n));
     }, 256);
     *count = std::accumulate(cnt.begin(), cnt.end(), int64_t(0));
+    if (per_texel) *per_texel = sse;
     return std::accumulate(sse.begin(), sse.end(), 0.0);
   }
 
-  double HeldoutRmse(bool per_channel = false) const {
+  double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr) const {
     int64_t n = 0;
-    const double sse = MixtureError(per_channel, false, false, &n, nullptr, nullptr);
+    const double sse = MixtureError(per_channel, false, false, &n, nullptr, nullptr, per_texel);
     return n ? std::sqrt(sse / n) : 0.0;
   }
   double TrainRmse(int k = -1) const {
@@ -483,8 +486,21 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     std::vector<BasisMaterial> basis;
     std::vector<int> assign;
     double heldout;
+    std::vector<double> texel_sse;  // held-out squared error per texel
   };
-  std::vector<State> states{{cl.basis(), cl.assign(), heldout}};
+  std::vector<double> texel_sse;
+  cl.HeldoutRmse(false, &texel_sse);
+  std::vector<State> states{{cl.basis(), cl.assign(), heldout, texel_sse}};
+  // Paired z statistic of the per-texel held-out errors of two states: how
+  // many standard errors `b` is below `a` (the split is a real improvement,
+  // not noise of the held-out estimate).
+  auto z_below = [](const std::vector<double>& a, const std::vector<double>& b) {
+    double sum = 0, sum2 = 0;
+    for (size_t t = 0; t < a.size(); ++t) sum += a[t] - b[t], sum2 += (a[t] - b[t]) * (a[t] - b[t]);
+    const double n = double(a.size()), var = std::max(0.0, sum2 / n - (sum / n) * (sum / n));
+    return sum / std::max(1e-300, std::sqrt(var * n));
+  };
+  size_t best_state = 0;
   const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
   std::vector<char> unsplittable;
   double best = heldout;
@@ -513,36 +529,38 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
       if (side[t] < 0) cl.assign()[t] = knew;
       else if (side[t] == 0 && cl.assign()[t] == k) cl.assign()[t] = -1;  // re-assigned below
     const BasisMaterial parent = cl.basis()[k];
-    cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params, k), knew));
+    cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params), knew));
     cl.SetBasis(k, MakeBasis(parent.spec, cl.Fit(parent.spec, k, parent.params), k));
     for (int& a : cl.assign()) if (a < 0) a = k;
     Refine(cl, o.refine_iterations);
-    const double h = cl.HeldoutRmse();
+    const double h = cl.HeldoutRmse(false, &texel_sse);
     const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
+    const double z = z_below(states[best_state].texel_sse, texel_sse);
     est.history.push_back({cl.K(), cl.TrainRmse(), h, false});
-    log(Msg(cl.K(), " clusters: held-out RMSE ", h, " (", 100 * drop, " % below the best so far)"));
-    states.push_back({cl.basis(), cl.assign(), h});
+    std::string sizes;
+    for (int j = 0; j < cl.K(); ++j)
+      sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j));
+    if (getenv("SVBRDF_DEBUG"))
+      for (int j = 0; j < cl.K(); ++j) {
+        std::string ps;
+        for (double p : cl.basis()[j].params) ps += Msg(" ", p);
+        log(Msg("   basis ", j, ":", ps));
+      }
+    log(Msg(cl.K(), " clusters (", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
+            " % below the best so far, z = ", z, ")"));
+    states.push_back({cl.basis(), cl.assign(), h, texel_sse});
     if (o.force_clusters == 0) {
-      if (drop >= o.min_improvement) {
+      if (drop >= o.min_improvement && z >= o.min_z) {
         best = h;
+        best_state = states.size() - 1;
         fails = 0;
       } else if (++fails >= 2) {
         break;
       }
     }
   }
-  // The fewest clusters whose held-out squared error is within
-  // min_improvement of the best state's (or the forced count).
-  size_t chosen = states.size() - 1;
-  if (o.force_clusters == 0) {
-    double min_h = 1e300;
-    for (const State& st : states) min_h = std::min(min_h, st.heldout);
-    for (size_t j = 0; j < states.size(); ++j)
-      if (states[j].heldout * states[j].heldout <= min_h * min_h * (1 + o.min_improvement)) {
-        chosen = j;
-        break;
-      }
-  }
+  // The last state that improved significantly on its predecessor (or the forced count).
+  const size_t chosen = o.force_clusters == 0 ? best_state : states.size() - 1;
   while (cl.K() > int(states[chosen].basis.size())) cl.RemoveBasis(cl.K() - 1);
   for (size_t j = 0; j < states[chosen].basis.size(); ++j) cl.SetBasis(int(j), states[chosen].basis[j]);
   cl.assign() = states[chosen].assign;

@@ -18,10 +18,14 @@
 //     d. Refinement: assign every texel to the basis material that explains its
 //        training samples best (with one free brightness scale per texel),
 //        refit the clusters that changed; `refine_iterations` times.
-//     e. Held-out error: project every texel's training samples onto all basis
-//        materials with non-negative scalar weights (NNLS), measure the squared
-//        error on its held-out samples. Stop (and undo the split) when the
-//        relative drop is below `min_improvement`; a split whose smaller half has fewer than
+//     e. Held-out error: whole photos are held out; every texel's training
+//        samples are projected onto the basis materials of its own and its
+//        neighbours' clusters with non-negative scalar weights (NNLS, with a
+//        weak prior towards its own cluster), and the squared error on its
+//        held-out samples is measured. A split counts as an improvement when
+//        the error drops by `min_improvement` (relative) and by `min_z`
+//        standard errors (paired test over texels); after two splits without
+//        improvement the last improving state is kept; a split whose smaller half has fewer than
 //        `min_cluster_fraction` of the texels is not made.
 //  3. Model economy per cluster: fit every candidate model to the cluster's
 //     training samples, keep the model with the fewest parameters whose
@@ -51,7 +55,8 @@ struct ReconstructOptions {
   int max_clusters = 6;
   int force_clusters = 0;        // > 0: exactly this many basis materials (no stopping rule)
   double holdout_fraction = 0.2;
-  double min_improvement = 0.10; // a split must lower the held-out squared error by this (relative)
+  double min_improvement = 0.05; // a split must lower the held-out squared error by this (relative)
+  double min_z = 3.0;            // ... and by this many standard errors (paired over texels)
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
   double parsimony = 0.01;       // prefer fewer parameters within this relative held-out error
   int refine_iterations = 2;

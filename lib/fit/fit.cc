@@ -119,7 +119,8 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
   }
   // A caller's start is kept as given; the default one gets least-squares amplitudes.
   if (initial.empty()) FitAmplitudes(spec, packed, screen, &base);
-  std::vector<std::vector<double>> starts = ShapeStarts(spec, base);
+  std::vector<std::vector<double>> starts =
+      options.multi_start ? ShapeStarts(spec, base) : std::vector<std::vector<double>>{base};
   for (size_t k = 1; k < starts.size(); ++k) FitAmplitudes(spec, packed, screen, &starts[k]);
 
   std::vector<double> best = starts[0];

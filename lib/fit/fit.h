@@ -21,6 +21,9 @@ struct FitOptions {
   // Fits use at most this many samples (a deterministic random subset) —
   // basis materials have few parameters, so more samples add time, not accuracy.
   int64_t max_samples = 20000;
+  // Try several shape starts (exponents, roughness) and keep the best; off =
+  // refine from the given start only (e.g. a robust refit of a fit).
+  bool multi_start = true;
   int threads = 0;  // 0 = all cores
   uint64_t seed = 1;
   void Check() const;  // throws Error for out-of-range values
