@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -31,7 +32,8 @@ void ReconstructOptions::Check() const {
 
 namespace {
 
-constexpr double kPriorSamples = 1.0;  // weight of the cluster prior in per-texel weights
+constexpr double kPriorSamples = 1.0;   // weight of the cluster prior in per-texel weights
+constexpr double kSmoothSamples = 3.0;  // weight of the neighbours' weights in the second pass
 inline double Sq(double x) { return x * x; }
 
 // Everything the clustering works on: samples split into training and
@@ -115,9 +117,10 @@ class Clustering {
   // the basis material. A least-squares fit first (so that true highlights
   // are explained, not discarded as outliers), then a Cauchy refit from it
   // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
-  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init) const {
+  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0) const {
     const std::vector<int64_t> ids = Ids(k, false);
     FitOptions fo = o_.fit;
+    if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
     fo.robust_scale = std::max(0.0, o_.robust_scale);
     FitResult ls = FitModel(spec, s_, ids, fo, init);
     if (o_.robust_scale >= 0 || ids.empty()) return ls;
@@ -195,7 +198,8 @@ class Clustering {
   // its sample-channel count; `weights` (texel-major [t][k][c]) when non-null.
   double MixtureError(bool per_channel, bool fit_on_all, bool eval_on_all, int64_t* count,
                       std::vector<float>* weights, std::vector<float>* residual,
-                      std::vector<double>* per_texel = nullptr) const {
+                      std::vector<double>* per_texel = nullptr,
+                      const std::vector<float>* smooth_from = nullptr) const {
     const int K = this->K();
     std::vector<double> sse(nt_, 0.0);
     std::vector<int64_t> cnt(nt_, 0);
@@ -230,11 +234,31 @@ class Clustering {
         for (int c = 0; c < 3; ++c) yp += pred_[k0][3 * i + c] * s_.y[c][i], pp += Sq(pred_[k0][3 * i + c]);
       }
       w0[k0] = pp > 0 ? std::clamp(yp / pp, 0.5, 2.0) : 1.0;
+      // Second pass: the prior is the mean of the neighbours' first-pass
+      // weights (a smoothness prior), worth kSmoothSamples samples.
+      Eigen::VectorXd w0c[3] = {w0, w0, w0};
+      double prior_samples = kPriorSamples;
+      if (smooth_from) {
+        int m = 0;
+        for (int c = 0; c < 3; ++c) w0c[c].setZero();
+        for (int u : neighbours_[t]) {
+          if (train_count_[u] == 0) continue;
+          ++m;
+          for (int k = 0; k < K; ++k)
+            for (int c = 0; c < 3; ++c) w0c[c][k] += (*smooth_from)[(size_t(u) * K + k) * 3 + c];
+        }
+        if (m > 0) {
+          for (int c = 0; c < 3; ++c) w0c[c] /= m;
+          prior_samples = kSmoothSamples;
+        } else {
+          w0c[0] = w0c[1] = w0c[2] = w0;
+        }
+      }
       for (int c = 0; c < 3; ++c) trace += AtA[c].trace();
-      const double lambda = kPriorSamples * trace / (3.0 * K * std::max<int64_t>(1, nfit)) + 1e-12;
+      const double lambda = prior_samples * trace / (3.0 * K * std::max<int64_t>(1, nfit)) + 1e-12;
       for (int c = 0; c < 3; ++c) {
         AtA[c].diagonal().array() += lambda;
-        Atb[c].col(0) += lambda * w0;
+        Atb[c].col(0) += lambda * (per_channel ? w0c[c] : Eigen::VectorXd((w0c[0] + w0c[1] + w0c[2]) / 3.0));
       }
       // Only materials of the texel's own and its neighbours' clusters mix:
       // inside a region that is one material (at a free brightness), at a
@@ -286,10 +310,19 @@ class Clustering {
     return std::accumulate(sse.begin(), sse.end(), 0.0);
   }
 
-  double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr) const {
+  double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr, bool smooth = false) const {
     int64_t n = 0;
-    const double sse = MixtureError(per_channel, false, false, &n, nullptr, nullptr, per_texel);
+    std::vector<float> first;
+    if (smooth) MixtureError(per_channel, false, false, &n, &first, nullptr);
+    const double sse = MixtureError(per_channel, false, false, &n, nullptr, nullptr, per_texel, smooth ? &first : nullptr);
     return n ? std::sqrt(sse / n) : 0.0;
+  }
+  // Final weights on all samples: a first pass, then the smoothness pass.
+  void FinalWeights(bool per_channel, std::vector<float>* weights, std::vector<float>* residual) const {
+    int64_t n = 0;
+    std::vector<float> first;
+    MixtureError(per_channel, true, true, &n, &first, nullptr);
+    MixtureError(per_channel, true, true, &n, weights, residual, nullptr, &first);
   }
   double TrainRmse(int k = -1) const {
     int64_t n = 0;
@@ -405,6 +438,24 @@ class Clustering {
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
 
+// RMS residual per channel over samples `ids`, without the largest 2 % of
+// per-sample errors: held-out samples of texels that the assignment got
+// wrong must not decide which model describes the cluster.
+double TrimmedRmse(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
+                   const std::vector<int64_t>& ids) {
+  std::vector<double> e(ids.size());
+  for (size_t j = 0; j < ids.size(); ++j) {
+    const Rgb p = PredictSample(spec, params.data(), s, ids[j]);
+    e[j] = Sq(p[0] - s.y[0][ids[j]]) + Sq(p[1] - s.y[1][ids[j]]) + Sq(p[2] - s.y[2][ids[j]]);
+  }
+  if (e.empty()) return 0.0;
+  const size_t keep = std::max<size_t>(1, e.size() - e.size() / 50);
+  std::nth_element(e.begin(), e.begin() + (keep - 1), e.end());
+  double sum = 0;
+  for (size_t j = 0; j < keep; ++j) sum += e[j];
+  return std::sqrt(sum / (3.0 * keep));
+}
+
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
   BasisMaterial b;
   b.name = Msg("m", index);
@@ -469,8 +520,10 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   Clustering cl(samples, atlas, o);
   SvbrdfEstimate est;
   const ModelSpec cluster_spec = ModelSpec::FromLabel(o.force_model.empty() ? o.cluster_model : o.force_model);
+  const auto t0 = std::chrono::steady_clock::now();
   auto log = [&](const std::string& s) {
-    if (o.progress) std::fprintf(stderr, "  %s\n", s.c_str());
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.progress) std::fprintf(stderr, "  [%6.1f s] %s\n", t, s.c_str());
   };
 
   // 1. One cluster.
@@ -579,10 +632,9 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     std::vector<Tried> tried;
     for (const std::string& label : candidates) {
       const ModelSpec spec = ModelSpec::FromLabel(label);
-      const FitResult r = cl.Fit(spec, k, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
-      int64_t n = 0;
-      const double sse = SumSquaredResidual(spec, r.params, samples, hold, &n);
-      tried.push_back({spec, r, n ? std::sqrt(sse / n) : 0.0});
+      const FitResult r = cl.Fit(spec, k, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{},
+                                 o.selection_samples);
+      tried.push_back({spec, r, TrimmedRmse(spec, r.params, samples, hold)});
     }
     double best = 1e300;
     for (const Tried& t : tried) best = std::min(best, t.rmse);
@@ -599,14 +651,13 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   Refine(cl, std::max(1, o.refine_iterations - 1));
 
   // 4. Mixing weights: scalar or per channel, by held-out error.
-  est.heldout_rmse_scalar = cl.HeldoutRmse(false);
-  est.heldout_rmse_channel = cl.HeldoutRmse(true);
+  est.heldout_rmse_scalar = cl.HeldoutRmse(false, nullptr, true);
+  est.heldout_rmse_channel = cl.HeldoutRmse(true, nullptr, true);
   est.per_channel_weights = est.heldout_rmse_channel < est.heldout_rmse_scalar;
   est.heldout_rmse = std::min(est.heldout_rmse_scalar, est.heldout_rmse_channel);
   log(Msg("weights: ", est.per_channel_weights ? "per channel" : "scalar", " (held-out RMSE scalar ",
           est.heldout_rmse_scalar, ", per channel ", est.heldout_rmse_channel, ")"));
-  int64_t n = 0;
-  cl.MixtureError(est.per_channel_weights, true, true, &n, &est.weights, &est.residual);
+  cl.FinalWeights(est.per_channel_weights, &est.weights, &est.residual);
 
   // 5. Confidence and neighbour fill.
   const int K = cl.K();

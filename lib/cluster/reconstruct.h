@@ -28,8 +28,9 @@
 //        improvement the last improving state is kept; a split whose smaller half has fewer than
 //        `min_cluster_fraction` of the texels is not made.
 //  3. Model economy per cluster: fit every candidate model to the cluster's
-//     training samples, keep the model with the fewest parameters whose
-//     held-out error is within `parsimony` of the best one; refine again.
+//     training samples (`selection_samples` of them), keep the model with the
+//     fewest parameters whose held-out error (trimmed of the worst 2 % of
+//     samples: misassigned texels) is within `parsimony` of the best; refine again.
 //  4. Mixing weights: NNLS per texel over all its samples, either one scalar
 //     weight per basis material or one per colour channel, whichever predicts
 //     the held-out samples better.
@@ -59,6 +60,7 @@ struct ReconstructOptions {
   double min_z = 3.0;            // ... and by this many standard errors (paired over texels)
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
   double parsimony = 0.01;       // prefer fewer parameters within this relative held-out error
+  int64_t selection_samples = 6000;  // samples per candidate fit during model selection
   int refine_iterations = 2;
   int min_samples = 4;           // per texel, for fits and confident weights
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
