@@ -33,7 +33,8 @@ void ReconstructOptions::Check() const {
 namespace {
 
 constexpr double kPriorSamples = 1.0;   // weight of the cluster prior in per-texel weights
-constexpr double kSmoothSamples = 3.0;  // weight of the neighbours' weights in the second pass
+constexpr double kSmoothSamples = 3.0;
+constexpr int kMaxFailedSplits = 3;      // splits in a row without improvement before stopping  // weight of the neighbours' weights in the second pass
 inline double Sq(double x) { return x * x; }
 
 // Everything the clustering works on: samples split into training and
@@ -117,10 +118,12 @@ class Clustering {
   // the basis material. A least-squares fit first (so that true highlights
   // are explained, not discarded as outliers), then a Cauchy refit from it
   // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
-  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0) const {
+  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0,
+                int threads = -1) const {
     const std::vector<int64_t> ids = Ids(k, false);
     FitOptions fo = o_.fit;
     if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
+    if (threads >= 0) fo.threads = threads;
     fo.robust_scale = std::max(0.0, o_.robust_scale);
     FitResult ls = FitModel(spec, s_, ids, fo, init);
     if (o_.robust_scale >= 0 || ids.empty()) return ls;
@@ -344,36 +347,41 @@ class Clustering {
   // Lensch's split of cluster k along the direction of largest parameter
   // variance (see reconstruct.h, step 2b). Per texel, the parameters that the
   // texel's own few samples do determine are estimated linearly: diffuse
-  // albedo per channel and the amplitude of the cluster's specular part
-  // (its model with rd = 0), by NNLS. These are whitened, split at the mean
-  // along their principal component, and the split is refined by 2-means.
+  // albedo per channel and the amplitudes of two fixed normalised cosine
+  // lobes (Lewis, exponents 8 and 64: a broad and a sharp highlight probe),
+  // by NNLS. The probes do not depend on the cluster's current fit, which may
+  // be poor while the cluster still mixes materials. The features are
+  // whitened, split at the mean along their principal component, and the
+  // split is refined by 2-means.
   // Returns +1/-1 for the texels of cluster k, 0 for the others.
   std::vector<int> SplitSides(int k) const {
-    const BasisMaterial& b = basis_[k];
-    BasisMaterial spec_part = b;
-    for (const char* name : {"rd_r", "rd_g", "rd_b"}) {
-      const auto info = b.spec.Params();
-      for (size_t q = 0; q < info.size(); ++q)
-        if (info[q].name == name) spec_part.params[q] = 0.0;
+    BasisMaterial probe[2];
+    for (int q = 0; q < 2; ++q) {
+      probe[q].spec = ModelSpec::FromLabel("cosine_lobe");
+      probe[q].params = {0, 0, 0, 1, 1, 1, q == 0 ? 8.0 : 64.0};  // rd, rs, exponent
     }
     std::vector<int> texels;
     for (int t = 0; t < nt_; ++t)
       if (usable_[t] && assign_[t] == k) texels.push_back(t);
     const size_t T = texels.size();
-    constexpr int F = 4;
+    constexpr int F = 5;
+    using VecF = Eigen::Matrix<double, F, 1>;
+    using MatF = Eigen::Matrix<double, F, F>;
     Eigen::MatrixXd X(T, F);
     ParallelFor(long(T), o_.threads, [&](long j) {
       const int t = texels[j];
-      Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
-      Eigen::Vector4d Atb = Eigen::Vector4d::Zero();
+      MatF AtA = MatF::Zero();
+      VecF Atb = VecF::Zero();
       for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
         if (holdout_[i]) continue;
         const Vec3 wi(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
-        const Rgb sp = EvalModelD(spec_part.spec, spec_part.params.data(), wi, wo) * s_.geom[i];
+        const double p0 = EvalModelD(probe[0].spec, probe[0].params.data(), wi, wo)[0] * s_.geom[i];
+        const double p1 = EvalModelD(probe[1].spec, probe[1].params.data(), wi, wo)[0] * s_.geom[i];
         for (int c = 0; c < 3; ++c) {
-          Eigen::Vector4d row = Eigen::Vector4d::Zero();
+          VecF row = VecF::Zero();
           row[c] = s_.geom[i] / kPi;
-          row[3] = sp[c];
+          row[3] = p0;
+          row[4] = p1;
           AtA += row * row.transpose();
           Atb += row * double(s_.y[c][i]);
         }
@@ -438,22 +446,35 @@ class Clustering {
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
 
-// RMS residual per channel over samples `ids`, without the largest 2 % of
-// per-sample errors: held-out samples of texels that the assignment got
-// wrong must not decide which model describes the cluster.
-double TrimmedRmse(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
-                   const std::vector<int64_t>& ids) {
+// Per-sample squared residuals (summed over channels) of a model on samples `ids`.
+std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
+                                 const std::vector<int64_t>& ids) {
   std::vector<double> e(ids.size());
   for (size_t j = 0; j < ids.size(); ++j) {
     const Rgb p = PredictSample(spec, params.data(), s, ids[j]);
     e[j] = Sq(p[0] - s.y[0][ids[j]]) + Sq(p[1] - s.y[1][ids[j]]) + Sq(p[2] - s.y[2][ids[j]]);
   }
+  return e;
+}
+
+// RMS residual per channel without the largest 2 % of per-sample errors:
+// held-out samples of texels that the assignment got wrong must not decide
+// which model describes the cluster.
+double TrimmedRmse(std::vector<double> e) {
   if (e.empty()) return 0.0;
   const size_t keep = std::max<size_t>(1, e.size() - e.size() / 50);
   std::nth_element(e.begin(), e.begin() + (keep - 1), e.end());
   double sum = 0;
   for (size_t j = 0; j < keep; ++j) sum += e[j];
   return std::sqrt(sum / (3.0 * keep));
+}
+
+// Paired z statistic: how many standard errors the mean of `b` lies below `a`.
+double PairedZ(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0, sum2 = 0;
+  for (size_t t = 0; t < a.size(); ++t) sum += a[t] - b[t], sum2 += (a[t] - b[t]) * (a[t] - b[t]);
+  const double n = double(a.size()), var = std::max(0.0, sum2 / n - (sum / n) * (sum / n));
+  return sum / std::max(1e-300, std::sqrt(var * n));
 }
 
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
@@ -532,9 +553,9 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   est.history.push_back({1, cl.TrainRmse(), heldout, true});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
-  // 2. Progressive splitting. Every state (basis + assignment) is kept; a
-  // split that does not lower the held-out error is not final, since the
-  // next split may separate what this one mixed (patience of 2 splits).
+  // 2. Progressive splitting with backtracking: a split that does not lower
+  // the held-out error significantly is undone and the next-worst cluster is
+  // split instead.
   struct State {
     std::vector<BasisMaterial> basis;
     std::vector<int> assign;
@@ -544,15 +565,6 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   std::vector<double> texel_sse;
   cl.HeldoutRmse(false, &texel_sse);
   std::vector<State> states{{cl.basis(), cl.assign(), heldout, texel_sse}};
-  // Paired z statistic of the per-texel held-out errors of two states: how
-  // many standard errors `b` is below `a` (the split is a real improvement,
-  // not noise of the held-out estimate).
-  auto z_below = [](const std::vector<double>& a, const std::vector<double>& b) {
-    double sum = 0, sum2 = 0;
-    for (size_t t = 0; t < a.size(); ++t) sum += a[t] - b[t], sum2 += (a[t] - b[t]) * (a[t] - b[t]);
-    const double n = double(a.size()), var = std::max(0.0, sum2 / n - (sum / n) * (sum / n));
-    return sum / std::max(1e-300, std::sqrt(var * n));
-  };
   size_t best_state = 0;
   const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
   std::vector<char> unsplittable;
@@ -588,7 +600,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     Refine(cl, o.refine_iterations);
     const double h = cl.HeldoutRmse(false, &texel_sse);
     const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
-    const double z = z_below(states[best_state].texel_sse, texel_sse);
+    const double z = PairedZ(states[best_state].texel_sse, texel_sse);
     est.history.push_back({cl.K(), cl.TrainRmse(), h, false});
     std::string sizes;
     for (int j = 0; j < cl.K(); ++j)
@@ -601,19 +613,26 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
       }
     log(Msg(cl.K(), " clusters (", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
             " % below the best so far, z = ", z, ")"));
-    states.push_back({cl.basis(), cl.assign(), h, texel_sse});
-    if (o.force_clusters == 0) {
-      if (drop >= o.min_improvement && z >= o.min_z) {
-        best = h;
-        best_state = states.size() - 1;
-        fails = 0;
-      } else if (++fails >= 2) {
-        break;
-      }
+    if (o.force_clusters > 0 || (drop >= o.min_improvement && z >= o.min_z)) {
+      states.push_back({cl.basis(), cl.assign(), h, texel_sse});
+      best = h;
+      best_state = states.size() - 1;
+      fails = 0;
+      std::fill(unsplittable.begin(), unsplittable.end(), 0);
+    } else {
+      // Backtrack: undo this split and try the next-worst cluster instead;
+      // stop after `kMaxFailedSplits` splits in a row that did not help.
+      const State& prev = states[best_state];
+      while (cl.K() > int(prev.basis.size())) cl.RemoveBasis(cl.K() - 1);
+      for (size_t j = 0; j < prev.basis.size(); ++j) cl.SetBasis(int(j), prev.basis[j]);
+      cl.assign() = prev.assign;
+      unsplittable.resize(cl.K(), 0);
+      unsplittable[k] = 1;
+      if (++fails >= kMaxFailedSplits) break;
     }
   }
   // The last state that improved significantly on its predecessor (or the forced count).
-  const size_t chosen = o.force_clusters == 0 ? best_state : states.size() - 1;
+  const size_t chosen = best_state;
   while (cl.K() > int(states[chosen].basis.size())) cl.RemoveBasis(cl.K() - 1);
   for (size_t j = 0; j < states[chosen].basis.size(); ++j) cl.SetBasis(int(j), states[chosen].basis[j]);
   cl.assign() = states[chosen].assign;
@@ -628,21 +647,51 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
       ModelSpec spec;
       FitResult fit;
       double rmse;
+      std::vector<double> errors;  // per held-out sample
     };
-    std::vector<Tried> tried;
-    for (const std::string& label : candidates) {
-      const ModelSpec spec = ModelSpec::FromLabel(label);
+    // Candidates are independent small fits: one per thread pays better than
+    // threads inside each Ceres solve.
+    std::vector<Tried> tried(candidates.size());
+    ParallelFor(long(candidates.size()), o.threads, [&](long j) {
+      const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
       const FitResult r = cl.Fit(spec, k, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{},
-                                 o.selection_samples);
-      tried.push_back({spec, r, TrimmedRmse(spec, r.params, samples, hold)});
+                                 o.selection_samples, 1);
+      std::vector<double> e = SampleErrors(spec, r.params, samples, hold);
+      tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
+    });
+    // The fewest parameters unless the best model is better by `parsimony`
+    // of the signal's RMS (a difference that shows in a picture) and by
+    // `model_min_z` standard errors (paired over held-out samples).
+    double signal = 0;
+    for (int64_t i : hold) signal += Sq(samples.y[0][i]) + Sq(samples.y[1][i]) + Sq(samples.y[2][i]);
+    signal = std::sqrt(signal / std::max<double>(1.0, 3.0 * hold.size()));
+    size_t best = 0;
+    for (size_t j = 1; j < tried.size(); ++j)
+      if (tried[j].rmse < tried[best].rmse) best = j;
+    // The same trimming as TrimmedRmse for the paired test: samples among the
+    // worst 2 % under the best model (misassigned texels) are left out.
+    std::vector<char> keep(hold.size(), 1);
+    if (!hold.empty()) {
+      std::vector<double> sorted = tried[best].errors;
+      const size_t cut = sorted.size() - 1 - sorted.size() / 50;
+      std::nth_element(sorted.begin(), sorted.begin() + cut, sorted.end());
+      for (size_t i = 0; i < hold.size(); ++i) keep[i] = tried[best].errors[i] <= sorted[cut];
     }
-    double best = 1e300;
-    for (const Tried& t : tried) best = std::min(best, t.rmse);
-    int chosen = -1;
-    for (size_t j = 0; j < tried.size(); ++j)
-      if (tried[j].rmse * tried[j].rmse <= best * best * (1 + o.parsimony) &&
-          (chosen < 0 || tried[j].spec.NumParams() < tried[chosen].spec.NumParams()))
-        chosen = int(j);
+    auto trimmed = [&](const std::vector<double>& e) {
+      std::vector<double> out;
+      for (size_t i = 0; i < e.size(); ++i)
+        if (keep[i]) out.push_back(e[i]);
+      return out;
+    };
+    int chosen = int(best);
+    for (size_t j = 0; j < tried.size(); ++j) {
+      const bool clearly_worse = tried[j].rmse - tried[best].rmse > o.parsimony * signal &&
+                                 PairedZ(trimmed(tried[j].errors), trimmed(tried[best].errors)) >= o.model_min_z;
+      if (!clearly_worse && tried[j].spec.NumParams() < tried[chosen].spec.NumParams()) chosen = int(j);
+    }
+    if (getenv("SVBRDF_DEBUG"))
+      for (size_t j = 0; j < tried.size(); ++j)
+        log(Msg("   ", tried[j].spec.Label(), " rmse ", tried[j].rmse, " z vs best ", PairedZ(trimmed(tried[j].errors), trimmed(tried[best].errors)), " signal ", signal));
     for (size_t j = 0; j < tried.size(); ++j)
       est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen});
     log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse, ")"));
@@ -714,7 +763,7 @@ Material ToMaterial(const SvbrdfEstimate& est, const Atlas& atlas, const Mesh& m
   const int K = static_cast<int>(est.basis.size());
   for (int k = 0; k < K; ++k) m.weights.emplace_back(atlas.width, atlas.height, 3, 0.0f);
   m.confidence = Image(atlas.width, atlas.height, 1, 0.0f);
-  m.material_id = Image(atlas.width, atlas.height, 1, -1.0f);
+  m.material_id = Image(atlas.width, atlas.height, 1, 0.0f);  // texels outside the atlas: 0 (their weights are 0)
   for (size_t t = 0; t < atlas.texels.size(); ++t) {
     const Texel& tx = atlas.texels[t];
     for (int k = 0; k < K; ++k)

@@ -24,13 +24,15 @@
 //        weak prior towards its own cluster), and the squared error on its
 //        held-out samples is measured. A split counts as an improvement when
 //        the error drops by `min_improvement` (relative) and by `min_z`
-//        standard errors (paired test over texels); after two splits without
-//        improvement the last improving state is kept; a split whose smaller half has fewer than
+//        standard errors (paired test over texels); otherwise the split is
+//        undone and the next-worst cluster is split instead (3 failures in a
+//        row end the search); a split whose smaller half has fewer than
 //        `min_cluster_fraction` of the texels is not made.
 //  3. Model economy per cluster: fit every candidate model to the cluster's
 //     training samples (`selection_samples` of them), keep the model with the
-//     fewest parameters whose held-out error (trimmed of the worst 2 % of
-//     samples: misassigned texels) is within `parsimony` of the best; refine again.
+//     fewest parameters unless the best model's held-out RMSE (trimmed of the
+//     worst 2 % of samples: misassigned texels) is lower by `parsimony` times
+//     the RMS of the signal and by `model_min_z` standard errors (paired); refine again.
 //  4. Mixing weights: NNLS per texel over all its samples, either one scalar
 //     weight per basis material or one per colour channel, whichever predicts
 //     the held-out samples better.
@@ -56,13 +58,14 @@ struct ReconstructOptions {
   int max_clusters = 6;
   int force_clusters = 0;        // > 0: exactly this many basis materials (no stopping rule)
   double holdout_fraction = 0.2;
-  double min_improvement = 0.05; // a split must lower the held-out squared error by this (relative)
+  double min_improvement = 0.02; // a split must lower the held-out squared error by this (relative)
   double min_z = 3.0;            // ... and by this many standard errors (paired over texels)
+  double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
-  double parsimony = 0.01;       // prefer fewer parameters within this relative held-out error
+  double parsimony = 0.001;      // prefer fewer parameters unless the best's RMSE is lower by this x signal RMS
   int64_t selection_samples = 6000;  // samples per candidate fit during model selection
   int refine_iterations = 2;
-  int min_samples = 4;           // per texel, for fits and confident weights
+  int min_samples = 3;           // per texel, for fits and confident weights
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
   // cluster's residuals), 0 = plain least squares, > 0 = this scale.
   double robust_scale = -1.0;

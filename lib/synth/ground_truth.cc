@@ -136,7 +136,7 @@ Material MakeGroundTruth(const Mesh& mesh, const GroundTruthOptions& options) {
   }
 
   for (int k = 0; k < options.num_materials; ++k) m.weights.emplace_back(m.width, m.height, 3, 0.0f);
-  m.material_id = Image(m.width, m.height, 1, -1.0f);
+  m.material_id = Image(m.width, m.height, 1, 0.0f);  // texels outside the atlas: 0 (their weights are 0)
   if (options.bump > 0) m.normal_map = Image(m.width, m.height, 3, 0.0f);
   const Vec3 phase(rng() % 1000 / 1000.0 * 6.28, rng() % 1000 / 1000.0 * 6.28, rng() % 1000 / 1000.0 * 6.28);
 

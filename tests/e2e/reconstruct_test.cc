@@ -1,0 +1,130 @@
+// End-to-end regression on small synthetic captures with exact ground truth:
+// synth -> reconstruct -> relight the held-out views -> compare. Thresholds
+// are on ground truth: held-out relit PSNR, chosen counts and models, cluster
+// map agreement (adjusted Rand index), diffuse albedo error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+
+#include "atlas/atlas.h"
+#include "evaluate/metrics.h"
+#include "pipeline/reconstruction.h"
+#include "relight/relight.h"
+#include "synth/capture.h"
+#include "synth/ground_truth.h"
+
+namespace svbrdf {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Outcome {
+  int clusters = 0;
+  std::vector<std::string> labels;
+  double psnr_mean = 0, psnr_min = 0;
+  double ari = 0;
+  double max_rd_error = 0;  // relative error of the diffuse albedo of matched basis materials
+};
+
+std::string Scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("svbrdf_e2e_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(p);
+  return p.string();
+}
+
+Outcome RunCase(const std::string& name, SynthOptions o, ReconstructOptions ro = {}) {
+  const std::string dir = Scratch(name);
+  Synthesize(o, dir + "/capture");
+  ReconstructionJob job;
+  job.scene_path = dir + "/capture/scene.json";
+  job.out_dir = dir + "/material";
+  job.gather.texture_size = o.material.texture_size;
+  job.gather.progress = false;
+  ro.progress = getenv("SVBRDF_VERBOSE") != nullptr;
+  job.estimate = ro;
+  job.report = false;
+  RunReconstruction(job);
+
+  Outcome out;
+  const Material rec = LoadMaterial(job.out_dir), gt = LoadMaterial(dir + "/capture/gt");
+  out.clusters = static_cast<int>(rec.basis.size());
+  for (const auto& b : rec.basis) out.labels.push_back(b.spec.Label());
+  const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
+  RelightOptions rl;
+  rl.progress = false;
+  RelightScene(rec, held, dir + "/relit", rl);
+  const SceneComparison cmp = CompareToScene(held, dir + "/relit");
+  out.psnr_mean = cmp.mean_psnr_srgb;
+  out.psnr_min = cmp.min_psnr_srgb;
+
+  // Cluster map vs true ids over interior texels (same atlas resolution).
+  const Atlas atlas = BuildAtlas(gt.mesh, gt.width, gt.height, 0);
+  std::vector<int> a, b;
+  std::map<int, std::map<int, int>> overlap;
+  for (const Texel& t : atlas.texels) {
+    const int ta = int(gt.material_id.at(t.x, t.y, 0)), tb = int(rec.material_id.at(t.x, t.y, 0));
+    a.push_back(ta);
+    b.push_back(tb);
+    overlap[tb][ta]++;
+  }
+  out.ari = AdjustedRandIndex(a, b);
+  // Each reconstructed basis against the true basis it overlaps most.
+  for (int k = 0; k < out.clusters; ++k) {
+    int best = 0, count = -1;
+    for (auto& [id, n] : overlap[k])
+      if (n > count) best = id, count = n;
+    for (const char* ch : {"rd_r", "rd_g", "rd_b"}) {
+      const double truth = GetParam(gt.basis[best], ch), est = GetParam(rec.basis[k], ch);
+      out.max_rd_error = std::max(out.max_rd_error, std::abs(est - truth) / std::max(0.05, truth));
+    }
+  }
+  std::printf("%s: %d clusters (", name.c_str(), out.clusters);
+  for (const auto& l : out.labels) std::printf(" %s", l.c_str());
+  std::printf(" ), held-out PSNR mean %.2f min %.2f dB, ARI %.3f, max rd error %.3f\n", out.psnr_mean, out.psnr_min,
+              out.ari, out.max_rd_error);
+  fs::remove_all(dir);
+  return out;
+}
+
+TEST(Reconstruct, TinyCaptureMeetsAccuracyThresholds) {
+  const Outcome r = RunCase("tiny", SynthPreset("tiny"));
+  EXPECT_EQ(r.clusters, 3);
+  EXPECT_GE(r.psnr_mean, 40.0);
+  EXPECT_GE(r.psnr_min, 36.0);
+  EXPECT_GE(r.ari, 0.85);
+  EXPECT_LE(r.max_rd_error, 0.15);
+}
+
+TEST(Reconstruct, ChoosesOneAndFiveMaterialsWhenThatIsTheTruth) {
+  for (int k : {1, 5}) {
+    SynthOptions o = SynthPreset("tiny");
+    o.material.num_materials = k;
+    const Outcome r = RunCase("count" + std::to_string(k), o);
+    EXPECT_EQ(r.clusters, k) << "true count " << k;
+    EXPECT_GE(r.psnr_mean, 36.0);
+  }
+}
+
+TEST(Reconstruct, SingleLobeTruthGetsNoExtraLobes) {
+  SynthOptions o = SynthPreset("tiny");
+  o.material.num_materials = 1;
+  o.material.models = {"lafortune-1"};
+  const Outcome r = RunCase("onelobe", o);
+  ASSERT_EQ(r.clusters, 1);
+  EXPECT_EQ(r.labels[0], "lafortune-1");
+}
+
+TEST(Reconstruct, ForcedModelAndCountAreHonoured) {
+  ReconstructOptions ro;
+  ro.force_model = "lafortune-2";
+  ro.force_clusters = 2;
+  const Outcome r = RunCase("forced", SynthPreset("tiny"), ro);
+  ASSERT_EQ(r.clusters, 2);
+  for (const auto& l : r.labels) EXPECT_EQ(l, "lafortune-2");
+}
+
+}  // namespace
+}  // namespace svbrdf
