@@ -34,7 +34,7 @@ namespace {
 
 constexpr double kPriorSamples = 1.0;   // weight of the cluster prior in per-texel weights
 constexpr double kSmoothSamples = 3.0;
-constexpr int kMaxFailedSplits = 3;      // splits in a row without improvement before stopping  // weight of the neighbours' weights in the second pass
+constexpr int kMaxFailedSplits = 4;      // splits in a row without improvement before stopping  // weight of the neighbours' weights in the second pass
 inline double Sq(double x) { return x * x; }
 
 // Everything the clustering works on: samples split into training and
@@ -354,7 +354,9 @@ class Clustering {
   // whitened, split at the mean along their principal component, and the
   // split is refined by 2-means.
   // Returns +1/-1 for the texels of cluster k, 0 for the others.
-  std::vector<int> SplitSides(int k) const {
+  // `variant` selects the features: 0 = all five, 1 = diffuse colour only,
+  // 2 = gloss amplitudes only (tried in turn when a split does not help).
+  std::vector<int> SplitSides(int k, int variant) const {
     BasisMaterial probe[2];
     for (int q = 0; q < 2; ++q) {
       probe[q].spec = ModelSpec::FromLabel("cosine_lobe");
@@ -364,10 +366,10 @@ class Clustering {
     for (int t = 0; t < nt_; ++t)
       if (usable_[t] && assign_[t] == k) texels.push_back(t);
     const size_t T = texels.size();
-    constexpr int F = 5;
-    using VecF = Eigen::Matrix<double, F, 1>;
-    using MatF = Eigen::Matrix<double, F, F>;
-    Eigen::MatrixXd X(T, F);
+    constexpr int kFeatures = 5;
+    using VecF = Eigen::Matrix<double, kFeatures, 1>;
+    using MatF = Eigen::Matrix<double, kFeatures, kFeatures>;
+    Eigen::MatrixXd X(T, kFeatures);
     ParallelFor(long(T), o_.threads, [&](long j) {
       const int t = texels[j];
       MatF AtA = MatF::Zero();
@@ -391,6 +393,9 @@ class Clustering {
     }, 256);
     std::vector<int> side(nt_, 0);
     if (T < 4) return side;
+    if (variant == 1) X = Eigen::MatrixXd(X.leftCols(3));
+    if (variant == 2) X = Eigen::MatrixXd(X.rightCols(2));
+    const int F = static_cast<int>(X.cols());
     // Whiten per feature, principal component, split at the mean.
     const Eigen::RowVectorXd mean = X.colwise().mean();
     Eigen::MatrixXd Z = X.rowwise() - mean;
@@ -567,26 +572,29 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   std::vector<State> states{{cl.basis(), cl.assign(), heldout, texel_sse}};
   size_t best_state = 0;
   const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
-  std::vector<char> unsplittable;
+  constexpr int kSplitVariants = 3;
+  std::vector<int> variants_tried;  // per cluster, since the last accepted split
   double best = heldout;
   int fails = 0;
+  bool lookahead = false;  // the current state is one unaccepted split past the best
+  int root_cluster = 0;    // the cluster of the best state whose split is being looked past
   while (cl.K() < target) {
-    unsplittable.resize(cl.K(), 0);
+    variants_tried.resize(cl.K(), 0);
     int k = -1;
     double worst = -1;
     for (int j = 0; j < cl.K(); ++j) {
       const double e = cl.ClusterSse(j);
-      if (!unsplittable[j] && e > worst) worst = e, k = j;
+      if (variants_tried[j] < kSplitVariants && e > worst) worst = e, k = j;
     }
     if (k < 0) break;
-    const std::vector<int> side = cl.SplitSides(k);
+    const std::vector<int> side = cl.SplitSides(k, variants_tried[k]);
     const long plus = std::count(side.begin(), side.end(), 1), minus = std::count(side.begin(), side.end(), -1);
     // A basis material must own a meaningful part of the surface: smaller
     // groups are usually blends at region borders, which the mixing weights
     // already represent.
     const long usable_texels = std::count(cl.usable().begin(), cl.usable().end(), char(1));
     if (std::min(plus, minus) < std::max<long>(2, long(o.min_cluster_fraction * usable_texels))) {
-      unsplittable[k] = 1;
+      variants_tried[k]++;
       continue;
     }
     const int knew = cl.K();
@@ -618,16 +626,25 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
       best = h;
       best_state = states.size() - 1;
       fails = 0;
-      std::fill(unsplittable.begin(), unsplittable.end(), 0);
+      lookahead = false;
+      std::fill(variants_tried.begin(), variants_tried.end(), 0);
+    } else if (!lookahead && cl.K() < target) {
+      // Look one split ahead before giving up: splitting 3 materials into 2
+      // clusters can be worse than 1 cluster (a colour mixed into the wrong
+      // basis), while the next split separates them.
+      lookahead = true;
+      root_cluster = k;
+      variants_tried.assign(cl.K(), 0);
     } else {
-      // Backtrack: undo this split and try the next-worst cluster instead;
-      // stop after `kMaxFailedSplits` splits in a row that did not help.
+      // Backtrack: undo the split(s) and try another feature set or the
+      // next-worst cluster; stop after `kMaxFailedSplits` failures in a row.
       const State& prev = states[best_state];
       while (cl.K() > int(prev.basis.size())) cl.RemoveBasis(cl.K() - 1);
       for (size_t j = 0; j < prev.basis.size(); ++j) cl.SetBasis(int(j), prev.basis[j]);
       cl.assign() = prev.assign;
-      unsplittable.resize(cl.K(), 0);
-      unsplittable[k] = 1;
+      variants_tried.resize(cl.K(), 0);
+      variants_tried[lookahead ? root_cluster : k]++;
+      lookahead = false;
       if (++fails >= kMaxFailedSplits) break;
     }
   }
