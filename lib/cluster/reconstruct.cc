@@ -613,12 +613,6 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     std::string sizes;
     for (int j = 0; j < cl.K(); ++j)
       sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j));
-    if (getenv("SVBRDF_DEBUG"))
-      for (int j = 0; j < cl.K(); ++j) {
-        std::string ps;
-        for (double p : cl.basis()[j].params) ps += Msg(" ", p);
-        log(Msg("   basis ", j, ":", ps));
-      }
     log(Msg(cl.K(), " clusters (", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
             " % below the best so far, z = ", z, ")"));
     if (o.force_clusters > 0 || (drop >= o.min_improvement && z >= o.min_z)) {
@@ -706,9 +700,6 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
                                  PairedZ(trimmed(tried[j].errors), trimmed(tried[best].errors)) >= o.model_min_z;
       if (!clearly_worse && tried[j].spec.NumParams() < tried[chosen].spec.NumParams()) chosen = int(j);
     }
-    if (getenv("SVBRDF_DEBUG"))
-      for (size_t j = 0; j < tried.size(); ++j)
-        log(Msg("   ", tried[j].spec.Label(), " rmse ", tried[j].rmse, " z vs best ", PairedZ(trimmed(tried[j].errors), trimmed(tried[best].errors)), " signal ", signal));
     for (size_t j = 0; j < tried.size(); ++j)
       est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen});
     log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse, ")"));

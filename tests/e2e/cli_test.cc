@@ -1,0 +1,85 @@
+// The CLI on bad input: a clear message naming the file or field, a non-zero
+// exit, and no half-written output.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code;
+  std::string output;
+};
+
+Result RunCli(const std::string& args) {
+  const std::string cmd = std::string(SVBRDF_CLI) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 512> buf;
+  while (pipe && fgets(buf.data(), buf.size(), pipe)) out += buf.data();
+  const int status = pipe ? pclose(pipe) : -1;
+  return {WEXITSTATUS(status), out};
+}
+
+std::string Scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("svbrdf_cli_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+
+TEST(Cli, MissingSceneNamesTheFile) {
+  const std::string dir = Scratch("missing");
+  const Result r = RunCli("reconstruct " + dir + "/nope/scene.json --out " + dir + "/mat");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("nope/scene.json"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/mat"));
+  fs::remove_all(dir);
+}
+
+TEST(Cli, MalformedJsonNamesFileAndField) {
+  const std::string dir = Scratch("malformed");
+  std::ofstream(dir + "/scene.json") << R"({"format": "svbrdf-scene/1", "mesh": "m.obj", "cameras": [], "lights": [], "images": [{"file": 3}]})";
+  const Result r = RunCli("relight " + dir + " " + dir + "/scene.json --out " + dir + "/out");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("error:"), std::string::npos) << r.output;
+  std::ofstream(dir + "/broken.json") << "{\"format\": ";
+  const Result r2 = RunCli("reconstruct " + dir + "/broken.json --out " + dir + "/mat");
+  EXPECT_NE(r2.code, 0);
+  EXPECT_NE(r2.output.find("broken.json"), std::string::npos) << r2.output;
+  fs::remove_all(dir);
+}
+
+TEST(Cli, WrongImageSizeNamesTheView) {
+  const std::string dir = Scratch("size");
+  ASSERT_EQ(RunCli("synth --preset tiny --images 3 --out " + dir + "/cap").code, 0);
+  // Claim a different camera size than the photos have.
+  std::ifstream in(dir + "/cap/scene.json");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string from = "\"width\": 160", to = "\"width\": 162";
+  const size_t at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << text.substr(0, 300);
+  text.replace(at, from.size(), to);
+  std::ofstream(dir + "/cap/scene.json") << text;
+  const Result r = RunCli("reconstruct " + dir + "/cap/scene.json --out " + dir + "/mat");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("images[0]"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/mat"));
+  fs::remove_all(dir);
+}
+
+TEST(Cli, EverySubcommandHasHelp) {
+  for (const char* sub : {"synth", "relight", "reconstruct", "evaluate"}) {
+    const Result r = RunCli(std::string(sub) + " --help");
+    EXPECT_EQ(r.code, 0) << sub;
+    EXPECT_NE(r.output.find("Example"), std::string::npos) << sub << ": " << r.output;
+  }
+}
+
+}  // namespace
