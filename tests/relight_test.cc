@@ -64,6 +64,15 @@ Light PointLight(const Vec3& p, double intensity) {
   return l;
 }
 
+// Renders image 0 of `s` at pixel centres.
+RenderedView RenderFirstView(const Mesh& mesh, const Material& mat, const Scene& s) {
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions ro;
+  ro.progress = false;
+  return RenderView(tracer, shader, s, 0, ro);
+}
+
 // Ray-sphere intersection of a pixel centre's ray, for the analytic reference.
 bool AnalyticHit(const Scene& s, double px, double py, double radius, Vec3* x) {
   const ImageEntry& e = s.images[0];
@@ -81,11 +90,7 @@ TEST(Relight, LambertianSphereMatchesClosedForm) {
   const Mesh mesh = Sphere(kRadius, Vec3::Zero());
   const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", rd}, {"rd_g", rd}, {"rd_b", rd}});
   const Scene s = OneView(Vec3(0, 0.3, 2.0), PointLight(Vec3(1.0, 1.5, 1.5), intensity));
-  RayTracer tracer(mesh);
-  MaterialShader shader(mat);
-  RelightOptions ro;
-  ro.progress = false;
-  const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+  const RenderedView v = RenderFirstView(mesh, mat, s);
   double max_rel = 0, sum_rel = 0;
   int n = 0;
   for (int y = 0; y < v.color.height; ++y)
@@ -124,11 +129,7 @@ TEST(Relight, HardShadowBehindABlocker) {
   mesh.ComputeNormals();
   const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", 0.5}, {"rd_g", 0.5}, {"rd_b", 0.5}});
   Scene s = OneView(Vec3(1.5, 3, 0.3), PointLight(Vec3(0, 2.0, 0), 4.0), 101, 101, 60);
-  RayTracer tracer(mesh);
-  MaterialShader shader(mat);
-  RelightOptions ro;
-  ro.progress = false;
-  const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+  const RenderedView v = RenderFirstView(mesh, mat, s);
   // The shadow of the blocker's 0.2 m square on the floor is 0.2 * 2/1.5 wide
   // around the origin; the blocker itself is lit (seen from above).
   int shadow = 0, lit = 0;
@@ -162,11 +163,7 @@ TEST(Relight, ProjectionFollowsColmapPixelConvention) {
     const Mesh mesh = Sphere(0.02, c, 40);
     const Material mat = UniformMaterial(mesh, "lambert", {});
     const Scene s = OneView(Vec3(0, 0, 3.0), PointLight(Vec3(0, 0, 3), 1.0), 200, 150, 500);
-    RayTracer tracer(mesh);
-    MaterialShader shader(mat);
-    RelightOptions ro;
-    ro.progress = false;
-    const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+    const RenderedView v = RenderFirstView(mesh, mat, s);
     double sx = 0, sy = 0, n = 0;
     for (int y = 0; y < v.mask.height; ++y)
       for (int x = 0; x < v.mask.width; ++x)
@@ -182,11 +179,7 @@ TEST(Relight, MaskMatchesAnalyticSilhouette) {
   const Mesh mesh = Sphere(kRadius, Vec3::Zero());
   const Material mat = UniformMaterial(mesh, "lambert", {});
   const Scene s = OneView(Vec3(0.2, 0.4, 1.8), PointLight(Vec3(0, 2, 2), 1.0));
-  RayTracer tracer(mesh);
-  MaterialShader shader(mat);
-  RelightOptions ro;
-  ro.progress = false;
-  const RenderedView v = RenderView(tracer, shader, s, 0, ro);
+  const RenderedView v = RenderFirstView(mesh, mat, s);
   long inter = 0, uni = 0;
   for (int y = 0; y < v.mask.height; ++y)
     for (int x = 0; x < v.mask.width; ++x) {
