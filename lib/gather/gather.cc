@@ -40,18 +40,26 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   GatherResult out;
   out.mesh = LoadMesh(scene.Resolve(scene.mesh));
   out.mesh.Validate(scene.Resolve(scene.mesh));
+  int size = options.texture_size;
   if (!out.mesh.HasUVs()) {
-    out.mesh = MakeTrivialAtlasUVs(out.mesh, options.texture_size);
+    // One atlas cell per triangle needs at least 3 texels a side (a texel
+    // and its gutter); a scanned mesh gets the atlas it needs, not less.
+    const int cells = static_cast<int>(std::ceil(std::sqrt(double(out.mesh.faces.size()))));
+    size = std::max(size, 4 * cells);
+    out.mesh = MakeTrivialAtlasUVs(out.mesh, size);
     out.made_uvs = true;
   }
-  out.atlas = BuildAtlas(out.mesh, options.texture_size, options.texture_size, 1);
+  out.atlas = BuildAtlas(out.mesh, size, size, 1);
   const Atlas& atlas = out.atlas;
   const long nt = static_cast<long>(atlas.texels.size());
   if (nt == 0) throw Error(Msg(scene.mesh, ": texture coordinates cover no texel of a ", options.texture_size, "^2 atlas"));
   RayTracer tracer(out.mesh);
   const double eps = 1e-4;  // ray offset (metres)
 
-  std::vector<std::vector<Record>> per_image(scene.images.size());
+  // Kept samples per image (texel, record); one full-size scratch buffer is
+  // reused across images, so memory grows with kept samples, not texels x views.
+  std::vector<std::vector<std::pair<int32_t, Record>>> per_image(scene.images.size());
+  std::vector<Record> recs(nt);
   GatherStats& st = out.stats;
   st.texels = nt;
   Progress progress("gather samples", static_cast<long>(scene.images.size()), options.progress);
@@ -74,8 +82,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     }
     const Rigid3 world_from_cam = e.cam_from_world.Inverse();
     const Vec3 eye = world_from_cam.translation;
-    std::vector<Record>& recs = per_image[i];
-    recs.resize(nt);
+    std::fill(recs.begin(), recs.end(), Record{});
     ParallelFor(nt, options.threads, [&](long t) {
       const Texel& tx = atlas.texels[t];
       Record& r = recs[t];
@@ -121,10 +128,11 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       r.reason = kKept;
     }, 256);
     long kept = 0;
-    for (const Record& r : recs) {
+    for (long t = 0; t < nt; ++t) {
+      const Record& r = recs[t];
       ++st.candidates;
       switch (r.reason) {
-        case kKept: ++kept; break;
+        case kKept: ++kept; per_image[i].emplace_back(static_cast<int32_t>(t), r); break;
         case kOutsideImage: ++st.outside_image; break;
         case kBackFacing: ++st.back_facing; break;
         case kOccluded: ++st.occluded; break;
@@ -145,14 +153,23 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   SampleSet& ss = out.samples;
   ss.num_texels = static_cast<int>(nt);
   ss.texel_begin.assign(nt + 1, 0);
-  for (const auto& recs : per_image)
-    for (long t = 0; t < nt; ++t) ss.texel_begin[t + 1] += recs[t].reason == kKept;
+  for (const auto& kept : per_image)
+    for (const auto& [t, r] : kept) ss.texel_begin[t + 1]++;
   for (long t = 0; t < nt; ++t) ss.texel_begin[t + 1] += ss.texel_begin[t];
-  ss.Reserve(st.kept);
-  for (long t = 0; t < nt; ++t)
-    for (size_t i = 0; i < per_image.size(); ++i) {
-      const Record& r = per_image[i][t];
-      if (r.reason == kKept) ss.Push(static_cast<int32_t>(t), static_cast<int32_t>(i), r.wi, r.wo, r.geom, r.y);
+  // Images are visited in order and each lists its texels in order, so a
+  // running cursor per texel yields samples sorted by texel, then image.
+  ss.texel.resize(st.kept);
+  ss.image.resize(st.kept);
+  ss.geom.resize(st.kept);
+  for (int k = 0; k < 3; ++k) ss.wi[k].resize(st.kept), ss.wo[k].resize(st.kept), ss.y[k].resize(st.kept);
+  std::vector<int64_t> cursor(ss.texel_begin.begin(), ss.texel_begin.end() - 1);
+  for (size_t i = 0; i < per_image.size(); ++i)
+    for (const auto& [t, r] : per_image[i]) {
+      const int64_t s = cursor[t]++;
+      ss.texel[s] = t;
+      ss.image[s] = static_cast<int32_t>(i);
+      ss.geom[s] = r.geom;
+      for (int k = 0; k < 3; ++k) ss.wi[k][s] = r.wi[k], ss.wo[k][s] = r.wo[k], ss.y[k][s] = r.y[k];
     }
   return out;
 }
