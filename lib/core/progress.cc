@@ -8,14 +8,14 @@
 namespace svbrdf {
 
 Progress::Progress(std::string label, long total, bool enabled)
-    : label_(std::move(label)), total_(total), enabled_(enabled && isatty(2) != -1),
+    : label_(std::move(label)), total_(total), enabled_(enabled), tty_(isatty(2) == 1),
       start_(std::chrono::steady_clock::now()), last_draw_(start_) {}
 
 Progress::~Progress() { Finish(); }
 
 void Progress::Tick(long n) {
   done_ += n;
-  if (!enabled_) return;
+  if (!enabled_ || !tty_) return;  // logs get the final line only
   const auto now = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
   if (now - last_draw_ < std::chrono::milliseconds(100)) return;

@@ -21,6 +21,7 @@ class Progress {
   std::string label_;
   long total_;
   bool enabled_;
+  bool tty_;  // redraw in place only on a terminal
   std::atomic<long> done_{0};
   std::mutex mutex_;
   std::chrono::steady_clock::time_point start_, last_draw_;
