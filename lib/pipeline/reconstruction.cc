@@ -68,7 +68,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   nlohmann::json summary;
   summary["scene"] = job.scene_path;
   summary["texels"] = g.atlas.texels.size();
-  summary["texture_size"] = job.gather.texture_size;
+  summary["texture_size"] = g.atlas.width;
   summary["made_uvs"] = g.made_uvs;
   summary["samples"] = {{"kept", g.stats.kept},          {"candidates", g.stats.candidates},
                         {"outside_image", g.stats.outside_image}, {"back_facing", g.stats.back_facing},
