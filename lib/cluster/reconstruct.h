@@ -63,7 +63,7 @@ struct ReconstructOptions {
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
   double parsimony = 0.001;      // prefer fewer parameters unless the best's RMSE is lower by this x signal RMS
-  int64_t selection_samples = 6000;  // samples per candidate fit during model selection
+  int64_t selection_samples = 3000;  // samples per candidate fit during model selection
   int refine_iterations = 2;
   int min_samples = 3;           // per texel, for fits and confident weights
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
