@@ -155,13 +155,7 @@ Texel MakeTexel(const Mesh& mesh, int x, int y, const Claim& c) {
     n = b0 * mesh.normals[f[0]] + c.b1 * mesh.normals[f[1]] + c.b2 * mesh.normals[f[2]];
   t.normal = n.squaredNorm() > 1e-24 ? Vec3(n.normalized()) : face_n;
 
-  // dP/du from the triangle's UV parametrisation: [e1 e2] = [dP/du dP/dv] [duv1 duv2].
-  const Vec3i& fu = mesh.face_uvs[c.prim];
-  const Vec2 uv0 = mesh.texcoords[fu[0]];
-  const Vec2 d1 = mesh.texcoords[fu[1]] - uv0, d2 = mesh.texcoords[fu[2]] - uv0;
-  const double det = Cross2(d1, d2);
-  const Vec3 dpdu = std::abs(det) > 1e-300 ? Vec3((e1 * d2.y() - e2 * d1.y()) / det) : Vec3::Zero();
-  t.tangent = Frame::FromNormalTangent(t.normal, dpdu).t;  // projects; falls back when degenerate
+  t.tangent = Frame::FromNormalTangent(t.normal, mesh.FaceDpDu(c.prim)).t;  // projects; falls back when degenerate
   return t;
 }
 

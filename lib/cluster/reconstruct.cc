@@ -36,6 +36,9 @@ constexpr double kPriorSamples = 1.0;   // weight of the cluster prior in per-te
 constexpr double kSmoothSamples = 3.0;
 constexpr int kMaxFailedSplits = 4;      // splits in a row without improvement before stopping  // weight of the neighbours' weights in the second pass
 inline double Sq(double x) { return x * x; }
+// Least-squares brightness of a texel relative to a basis material (sums of
+// y*p and p*p), limited to [0.5, 2]: darker or brighter, not another material.
+inline double BrightnessScale(double yp, double pp) { return std::clamp(yp / pp, 0.5, 2.0); }
 
 // Everything the clustering works on: samples split into training and
 // held-out sets, per-texel sample counts, the current basis materials, their
@@ -153,7 +156,7 @@ class Clustering {
         yp += y * q, pp += q * q, yy += y * y;
       }
     }
-    const double a = pp > 0 ? std::clamp(yp / pp, 0.5, 2.0) : 0.0;
+    const double a = pp > 0 ? BrightnessScale(yp, pp) : 0.0;
     return std::max(0.0, yy - 2 * a * yp + a * a * pp);
   }
 
@@ -236,7 +239,7 @@ class Clustering {
         ++nfit;
         for (int c = 0; c < 3; ++c) yp += pred_[k0][3 * i + c] * s_.y[c][i], pp += Sq(pred_[k0][3 * i + c]);
       }
-      w0[k0] = pp > 0 ? std::clamp(yp / pp, 0.5, 2.0) : 1.0;
+      w0[k0] = pp > 0 ? BrightnessScale(yp, pp) : 1.0;
       // Second pass: the prior is the mean of the neighbours' first-pass
       // weights (a smoothness prior), worth kSmoothSamples samples.
       Eigen::VectorXd w0c[3] = {w0, w0, w0};

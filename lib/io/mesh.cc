@@ -92,6 +92,17 @@ void AppendNumber(std::string& out, double v) {
 
 }  // namespace
 
+Vec3 Mesh::FaceDpDu(int f) const {
+  if (!HasUVs()) return Vec3::Zero();
+  const Vec3i& i = faces[f];
+  const Vec3i& j = face_uvs[f];
+  const Vec3 e1 = positions[i[1]] - positions[i[0]], e2 = positions[i[2]] - positions[i[0]];
+  const Vec2 d1 = texcoords[j[1]] - texcoords[j[0]], d2 = texcoords[j[2]] - texcoords[j[0]];
+  // [e1 e2] = [dP/du dP/dv] [d1 d2]
+  const double det = d1.x() * d2.y() - d1.y() * d2.x();
+  return std::abs(det) > 1e-300 ? Vec3((e1 * d2.y() - e2 * d1.y()) / det) : Vec3::Zero();
+}
+
 void Mesh::ComputeNormals() {
   // Sum of unnormalised face normals (length = 2 x area) weights faces by area.
   normals.assign(positions.size(), Vec3::Zero());

@@ -18,6 +18,9 @@ struct Mesh {
 
   bool HasUVs() const { return !face_uvs.empty(); }
   void ComputeNormals();
+  // dP/du of face f from its UV parametrisation (the tangent that orients
+  // anisotropic materials); zero without UVs or for a degenerate UV triangle.
+  Vec3 FaceDpDu(int f) const;
   // Throws Error naming `context` for out-of-range indices, NaNs, no faces,
   // or only degenerate (zero-area) faces.
   void Validate(const std::string& context) const;

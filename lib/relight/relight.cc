@@ -17,25 +17,6 @@ void RelightOptions::Check() const {
     throw Error(Msg("relight: --spp must be in [1, 16], got ", samples_per_pixel));
 }
 
-namespace {
-
-// Per-triangle tangent dP/du (zero when the mesh has no UVs), so anisotropic
-// models are oriented along the texture's u axis as in the reconstruction.
-std::vector<Vec3> FaceTangents(const Mesh& mesh) {
-  std::vector<Vec3> tangents(mesh.faces.size(), Vec3::Zero());
-  if (!mesh.HasUVs()) return tangents;
-  for (size_t f = 0; f < mesh.faces.size(); ++f) {
-    const Vec3i& i = mesh.faces[f];
-    const Vec3i& j = mesh.face_uvs[f];
-    const Vec3 e1 = mesh.positions[i[1]] - mesh.positions[i[0]], e2 = mesh.positions[i[2]] - mesh.positions[i[0]];
-    const Vec2 d1 = mesh.texcoords[j[1]] - mesh.texcoords[j[0]], d2 = mesh.texcoords[j[2]] - mesh.texcoords[j[0]];
-    const double det = d1.x() * d2.y() - d2.x() * d1.y();
-    if (std::abs(det) > 1e-20) tangents[f] = (e1 * d2.y() - e2 * d1.y()) / det;
-  }
-  return tangents;
-}
-
-}  // namespace
 
 RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene, size_t index,
                         const RelightOptions& options) {
@@ -44,7 +25,6 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
   const Light& light = scene.LightById(entry.light);
   const Rigid3 world_from_cam = entry.cam_from_world.Inverse();
   const Vec3 eye = world_from_cam.translation;
-  const std::vector<Vec3> tangents = FaceTangents(tracer.mesh());
   const int n = options.samples_per_pixel;
   const double scene_scale = 1e-4;  // shadow-ray offset; meshes are in metres, objects ~0.1-10 m
 
@@ -64,7 +44,7 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
     const Vec3 x = tracer.Position(hit);
     const Vec2 uv = tracer.TexCoord(hit);
     const Vec3 n_shade = shader.Normal(uv, tracer.ShadingNormal(hit));
-    const Frame frame = Frame::FromNormalTangent(n_shade, tangents[hit.prim]);
+    const Frame frame = Frame::FromNormalTangent(n_shade, tracer.mesh().FaceDpDu(hit.prim));
     const Vec3 wo = (eye - x).normalized();
     const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
     const double cos_i = n_shade.dot(ls.wi);
