@@ -574,6 +574,11 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   cl.HeldoutRmse(false, &texel_sse);
   std::vector<State> states{{cl.basis(), cl.assign(), heldout, texel_sse}};
   size_t best_state = 0;
+  auto restore = [&cl](const State& st) {
+    while (cl.K() > int(st.basis.size())) cl.RemoveBasis(cl.K() - 1);
+    for (size_t j = 0; j < st.basis.size(); ++j) cl.SetBasis(int(j), st.basis[j]);
+    cl.assign() = st.assign;
+  };
   const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
   constexpr int kSplitVariants = 3;
   std::vector<int> variants_tried;  // per cluster, since the last accepted split
@@ -635,10 +640,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     } else {
       // Backtrack: undo the split(s) and try another feature set or the
       // next-worst cluster; stop after `kMaxFailedSplits` failures in a row.
-      const State& prev = states[best_state];
-      while (cl.K() > int(prev.basis.size())) cl.RemoveBasis(cl.K() - 1);
-      for (size_t j = 0; j < prev.basis.size(); ++j) cl.SetBasis(int(j), prev.basis[j]);
-      cl.assign() = prev.assign;
+      restore(states[best_state]);
       variants_tried.resize(cl.K(), 0);
       variants_tried[lookahead ? root_cluster : k]++;
       lookahead = false;
@@ -647,9 +649,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   }
   // The last state that improved significantly on its predecessor (or the forced count).
   const size_t chosen = best_state;
-  while (cl.K() > int(states[chosen].basis.size())) cl.RemoveBasis(cl.K() - 1);
-  for (size_t j = 0; j < states[chosen].basis.size(); ++j) cl.SetBasis(int(j), states[chosen].basis[j]);
-  cl.assign() = states[chosen].assign;
+  restore(states[chosen]);
   for (auto& h : est.history) h.accepted = h.clusters == cl.K();
   log(Msg("chosen: ", cl.K(), " basis materials"));
 
