@@ -89,6 +89,7 @@ class Clustering {
   std::vector<int>& assign() { return assign_; }
   const std::vector<char>& usable() const { return usable_; }
   const std::vector<char>& holdout() const { return holdout_; }
+  const char* stage = "clustering";  // names the stage in fit errors
 
   // Sample ids of usable texels in cluster k (all clusters when k < 0), train or held-out.
   std::vector<int64_t> Ids(int k, bool heldout) const {
@@ -128,6 +129,7 @@ class Clustering {
     if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
     if (threads >= 0) fo.threads = threads;
     fo.robust_scale = std::max(0.0, o_.robust_scale);
+    fo.context = Msg("reconstruct: cluster ", k, " (", stage, ")");
     FitResult ls = FitModel(spec, s_, ids, fo, init);
     if (o_.robust_scale >= 0 || ids.empty()) return ls;
     std::vector<float> r;
@@ -556,11 +558,13 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   };
 
   // 1. One cluster.
+  cl.stage = "initial fit";
   cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
   double heldout = cl.HeldoutRmse();
   est.history.push_back({1, cl.TrainRmse(), heldout, true});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
+  cl.stage = "split";
   // 2. Progressive splitting with backtracking: a split that does not lower
   // the held-out error significantly is undone and the next-worst cluster is
   // split instead.
@@ -654,6 +658,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   log(Msg("chosen: ", cl.K(), " basis materials"));
 
   // 3. Model economy per cluster.
+  cl.stage = "model selection";
   std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
   for (int k = 0; k < cl.K(); ++k) {
     const std::vector<int64_t> hold = cl.Ids(k, true);
@@ -708,6 +713,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse, ")"));
     cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
   }
+  cl.stage = "final refinement";
   Refine(cl, std::max(1, o.refine_iterations - 1));
 
   // 4. Mixing weights: scalar or per channel, by held-out error.
