@@ -20,7 +20,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // 1. One cluster.
   cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
   const double heldout = cl.HeldoutRmse();
-  est.history.push_back({1, cl.TrainRmse(), heldout, true});
+  est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
   // 2. Progressive splitting with backtracking (split_search.cc).

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <string>
+#include <unordered_set>
 
 #include "cluster/split.h"
 #include "cluster/stats.h"
@@ -25,6 +26,12 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
   cl.HeldoutRmse(false, &texel_sse);
   std::vector<State> states{{cl.basis(), cl.assign(), heldout, texel_sse}};
   size_t best_state = 0;
+  // Every state is evaluated once: a split that leads back to a partition
+  // already evaluated (two feature sets giving the same halves, a half emptied
+  // by refinement) counts as a failed split without a second evaluation, and
+  // a split proposal already tried from the same state is not fitted again.
+  // Cycles between states (4 <-> 5 clusters) are impossible by construction.
+  std::unordered_set<uint64_t> evaluated{est.history.back().partition}, proposed;
   auto restore = [&cl](const State& st) {
     while (cl.K() > int(st.basis.size())) cl.RemoveBasis(cl.K() - 1);
     for (size_t j = 0; j < st.basis.size(); ++j) cl.SetBasis(int(j), st.basis[j]);
@@ -56,6 +63,22 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       variants_tried[k]++;
       continue;
     }
+    auto undo = [&] {
+      restore(states[best_state]);
+      variants_tried.resize(cl.K(), 0);
+      variants_tried[lookahead ? root_cluster : k]++;
+      lookahead = false;
+      return ++fails >= kMaxFailedSplits;
+    };
+    std::vector<int> proposal(cl.assign());
+    for (size_t t = 0; t < side.size(); ++t)
+      if (side[t] < 0) proposal[t] = cl.K();
+    if (!proposed.insert(PartitionKey(proposal) ^ (PartitionKey(cl.assign()) * 0x9e3779b97f4a7c15ull)).second) {
+      ++est.states_revisited;
+      log(Msg("split of cluster ", k, " (features ", variants_tried[k], ") already tried from this state: skipped"));
+      if (undo()) break;
+      continue;
+    }
     const int knew = cl.K();
     for (size_t t = 0; t < side.size(); ++t)
       if (side[t] < 0) cl.assign()[t] = knew;
@@ -65,10 +88,17 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     cl.SetBasis(k, MakeBasis(parent.spec, cl.Fit(parent.spec, k, parent.params), k));
     for (int& a : cl.assign()) if (a < 0) a = k;
     Refine(cl, o.refine_iterations);
+    const uint64_t key = PartitionKey(cl.assign());
+    if (!evaluated.insert(key).second) {
+      ++est.states_revisited;
+      log(Msg("split of cluster ", k, " led back to an evaluated state (", cl.K(), " clusters): skipped"));
+      if (undo()) break;
+      continue;
+    }
     const double h = cl.HeldoutRmse(false, &texel_sse);
     const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
     const double z = PairedZ(states[best_state].texel_sse, texel_sse);
-    est.history.push_back({cl.K(), cl.TrainRmse(), h, false});
+    est.history.push_back({cl.K(), cl.TrainRmse(), h, false, key});
     std::string sizes;
     for (int j = 0; j < cl.K(); ++j)
       sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j));
@@ -91,17 +121,14 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     } else {
       // Backtrack: undo the split(s) and try another feature set or the
       // next-worst cluster; stop after `kMaxFailedSplits` failures in a row.
-      restore(states[best_state]);
-      variants_tried.resize(cl.K(), 0);
-      variants_tried[lookahead ? root_cluster : k]++;
-      lookahead = false;
-      if (++fails >= kMaxFailedSplits) break;
+      if (undo()) break;
     }
   }
   // The last state that improved significantly on its predecessor (or the forced count).
   const size_t chosen = best_state;
   restore(states[chosen]);
-  for (auto& h : est.history) h.accepted = h.clusters == cl.K();
+  const uint64_t chosen_key = PartitionKey(cl.assign());
+  for (auto& h : est.history) h.accepted = h.partition == chosen_key;
   log(Msg("chosen: ", cl.K(), " basis materials"));
 }
 
