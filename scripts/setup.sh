@@ -12,6 +12,7 @@ PACKAGES=(
   libopencv-dev libopencv-contrib-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev
   python3 python3-numpy python3-matplotlib python3-opencv python3-openimageio
+  libcgal-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

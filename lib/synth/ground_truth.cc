@@ -118,7 +118,7 @@ Material MakeGroundTruth(const Mesh& mesh, const GroundTruthOptions& options) {
   for (int k = 0; k < options.num_materials; ++k)
     m.basis.push_back(LibraryMaterial(k, options.models.empty() ? "" : options.models[k]));
 
-  const Atlas atlas = BuildAtlas(mesh, m.width, m.height, 2);
+  const Atlas atlas = BuildAtlas(mesh, m.width, m.height, 2, options.cover_small_triangles);
   if (atlas.texels.empty()) throw Error("ground truth: the mesh's UVs cover no texel");
 
   // Well-spread region seeds: farthest-point sampling over texel positions,
