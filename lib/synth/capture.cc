@@ -91,7 +91,7 @@ SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& 
       "exposure", &o.exposure)("format", &o.format)("noise", &o.noise)("read_noise", &o.read_noise)(
       "pose_error_deg", &o.pose_error_deg)("pose_error_mm", &o.pose_error_mm)("light_error_mm", &o.light_error_mm)(
       "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("seed", &o.seed)("threads", &o.threads)(
-      "material", &material)("description", &description);
+      "material", &material)("description", &description)("mesh_file", &o.mesh_file)("mesh_uvs", &o.mesh_uvs);
   r.RejectUnknown();
   FieldReader m(material, context + ": material");
   nlohmann::json params = nlohmann::json::array();
@@ -127,6 +127,7 @@ nlohmann::json SynthOptions::ToJson() const {
           {"exposure", exposure}, {"format", format}, {"noise", noise}, {"read_noise", read_noise},
           {"pose_error_deg", pose_error_deg}, {"pose_error_mm", pose_error_mm}, {"light_error_mm", light_error_mm},
           {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"seed", seed},
+          {"mesh_file", mesh_file}, {"mesh_uvs", mesh_uvs},
           {"material",
            {{"num_materials", material.num_materials}, {"models", material.models},
             {"texture_size", material.texture_size}, {"blend", material.blend}, {"variation", material.variation},
@@ -317,9 +318,10 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
   fs::remove_all(tmp);
   fs::create_directories(tmp / "lights");
 
-  Mesh mesh = MakeShape(o.object, o.detail);
+  Mesh mesh = o.mesh_file.empty() ? MakeShape(o.object, o.detail) : LoadShapeFromFile(o.mesh_file, o.material.texture_size);
   GroundTruthOptions gto = o.material;
   gto.seed = StreamSeed(o.seed, 1, o.material.seed);
+  gto.cover_small_triangles = !o.mesh_file.empty();
   Material gt = MakeGroundTruth(mesh, gto);
   SaveMaterial(gt, (tmp / "gt").string());
     WriteFileAtomic((tmp / "lights" / "lamp.ies").string(), kLampIes);
@@ -345,6 +347,7 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
       recorded_mesh.positions[v] += recorded_mesh.normals[v] * g(rng) * o.geometry_noise_mm * 1e-3;
     recorded_mesh.ComputeNormals();
   }
+  if (!o.mesh_uvs) recorded_mesh.texcoords.clear(), recorded_mesh.face_uvs.clear();  // as a scan comes
   SaveObj(recorded_mesh, (tmp / "mesh.obj").string());
   recorded.ground_truth = {{"material", "gt"},
                            {"material_id", "gt/material_id.png"},
