@@ -237,6 +237,11 @@ TEST(EnvironmentMap, BadMapsAreClearErrors) {
   EXPECT_THROW(EnvironmentMap(4, 2, rgb, "x.exr"), Error);
   EXPECT_THROW(EnvironmentMap(4, 2, std::vector<float>(24, 0.0f), "x.exr"), Error);
   EXPECT_THROW(EnvironmentMap(4, 2, std::vector<float>(23, 1.0f), "x.exr"), Error);
+  std::vector<float> ringing(24, 1.0f);
+  ringing[3] = -1e-3f;
+  const EnvironmentMap env(4, 2, ringing, "x.exr");
+  EXPECT_EQ(env.clamped_negative(), 1);
+  EXPECT_EQ(env.Radiance(EnvironmentMap::UvToDirection(Vec2(0.375, 0.25)))[0], 0.0);
   try {
     EnvironmentMap(4, 2, rgb, "sky.exr");
   } catch (const Error& e) {

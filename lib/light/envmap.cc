@@ -13,9 +13,14 @@ EnvironmentMap::EnvironmentMap(int width, int height, std::vector<float> rgb, co
     throw Error(Msg(context, ": environment map must be a width x height x 3 image"));
   if (!(scale > 0) || !std::isfinite(scale)) throw Error(Msg(context, ": environment scale must be > 0"));
   for (size_t i = 0; i < rgb_.size(); ++i) {
-    if (!std::isfinite(rgb_[i]) || rgb_[i] < 0)
-      throw Error(Msg(context, ": pixel (", (i / 3) % width, ", ", (i / 3) / width, ") has a ",
-                      std::isfinite(rgb_[i]) ? "negative" : "non-finite", " value; an environment map needs finite radiances >= 0"));
+    if (!std::isfinite(rgb_[i]))
+      throw Error(Msg(context, ": pixel (", (i / 3) % width, ", ", (i / 3) / width,
+                      ") has a non-finite value; an environment map needs finite radiances"));
+    // Resampled HDR files carry small negative ringing; it is no light.
+    if (rgb_[i] < 0) {
+      rgb_[i] = 0;
+      ++clamped_negative_;
+    }
     rgb_[i] = float(rgb_[i] * scale);
   }
   texel_p_.assign(size_t(width) * height, 0.0);

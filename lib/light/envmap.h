@@ -19,8 +19,9 @@ namespace svbrdf {
 class EnvironmentMap {
  public:
   // `rgb`: width*height*3 linear radiances, row-major, row 0 at the top.
-  // Throws Error naming `context` for non-finite or negative values, a
-  // black map or a wrong size.
+  // Negative values (ringing of resampled HDR files) are set to 0 and
+  // counted; throws Error naming `context` for non-finite values, a black
+  // map or a wrong size.
   EnvironmentMap(int width, int height, std::vector<float> rgb, const std::string& context, double scale = 1.0);
 
   Rgb Radiance(const Vec3& dir) const;
@@ -34,6 +35,7 @@ class EnvironmentMap {
   static Vec3 UvToDirection(const Vec2& uv);
   // Probability that Sample picks texel (x, y) (for tests).
   double TexelProbability(int x, int y) const;
+  long clamped_negative() const { return clamped_negative_; }  // values set to 0 (see constructor)
 
  private:
   int width_, height_;
@@ -41,6 +43,7 @@ class EnvironmentMap {
   std::vector<double> row_cdf_;   // height+1
   std::vector<double> col_cdf_;   // height * (width+1)
   std::vector<double> texel_p_;   // width*height, probabilities (sum 1)
+  long clamped_negative_ = 0;
 };
 
 }  // namespace svbrdf

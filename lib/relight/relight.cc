@@ -1,5 +1,6 @@
 #include "relight/relight.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <random>
@@ -116,6 +117,8 @@ int RelightScene(const Material& material, const Scene& scene, const std::string
     for (size_t p = 0; p < size_t(img.width) * img.height; ++p)
       for (int c = 0; c < 3; ++c) rgb[3 * p + c] = img.pixels[p * img.channels + std::min(c, img.channels - 1)];
     env = std::make_unique<EnvironmentMap>(img.width, img.height, std::move(rgb), options.envmap, options.envmap_scale);
+    if (env->clamped_negative() > 0)
+      std::fprintf(stderr, "warning: %s: %ld negative values set to 0\n", options.envmap.c_str(), env->clamped_negative());
   }
   for (size_t i = 0; i < scene.images.size(); ++i) {
     const ImageEntry& entry = scene.images[i];
