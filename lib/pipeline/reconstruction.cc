@@ -9,6 +9,7 @@
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/normal_map.h"
+#include "pipeline/report_html.h"
 #include "relight/relight.h"
 
 namespace svbrdf {
@@ -193,6 +194,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["total_s"] = timer.Total();
   summary["peak_memory_mb"] = PeakMemoryMB();
   if (job.report) WriteFileAtomic(job.out_dir + "/report/summary.json", summary.dump(2));
+  if (job.report) WriteReportHtml(summary, job.out_dir + "/report");
   std::fprintf(stderr, "%s", timer.Report().c_str());
   return summary;
 }
