@@ -58,7 +58,8 @@ namespace svbrdf {
 struct ReconstructOptions {
   // Models tried for every basis material (model selection); `force_model` skips the choice.
   std::vector<std::string> candidate_models = {"lambert", "oren_nayar", "lafortune-1", "lafortune-2",
-                                               "cook_torrance-beckmann", "cook_torrance-ggx"};
+                                               "cook_torrance-beckmann", "cook_torrance-ggx", "conductor-ggx-schlick",
+                                               "conductor-ggx", "conductor-beckmann", "coated-ggx", "coated-beckmann"};
   std::string force_model;
   std::string cluster_model = "lafortune-1";  // model used while splitting
   int max_clusters = 6;
