@@ -52,7 +52,8 @@ namespace svbrdf {
 struct ReconstructOptions {
   // Models tried for every basis material (model selection); `force_model` skips the choice.
   std::vector<std::string> candidate_models = {"lambert", "oren_nayar", "lafortune-1", "lafortune-2",
-                                               "cook_torrance-beckmann", "cook_torrance-ggx"};
+                                               "cook_torrance-beckmann", "cook_torrance-ggx", "conductor-ggx-schlick",
+                                               "conductor-ggx", "conductor-beckmann", "coated-ggx", "coated-beckmann"};
   std::string force_model;
   std::string cluster_model = "lafortune-1";  // model used while splitting
   int max_clusters = 6;
@@ -76,10 +77,12 @@ struct ReconstructOptions {
   void Check() const;
 };
 
+// One evaluated clustering state (every state is evaluated at most once).
 struct ClusterStep {
   int clusters = 0;
   double train_rmse = 0, heldout_rmse = 0;
-  bool accepted = true;
+  bool accepted = true;     // the state finally chosen
+  uint64_t partition = 0;   // canonical key of the texel partition (PartitionKey)
 };
 
 struct ModelChoice {
@@ -99,6 +102,7 @@ struct SvbrdfEstimate {
   std::vector<float> confidence;  // per texel, [0,1]
   std::vector<float> residual;    // per texel RMS residual of its samples
   std::vector<ClusterStep> history;
+  int states_revisited = 0;       // splits that led back to an evaluated state (skipped, not re-evaluated)
   std::vector<ModelChoice> model_choices;
   double heldout_rmse = 0;        // final, with the chosen weights mode
   double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;
