@@ -16,7 +16,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
       "reconstruct",
       "Recover a spatially varying BRDF from a capture (scene.json): per-texel samples, Lensch-style\n"
       "progressive clustering with Ceres fits, model and cluster count chosen on held-out samples,\n"
-      "NNLS mixing weights. Writes a material folder (material.json, mesh, EXR maps) and OUT/report/.\n"
+      "NNLS mixing weights, per-texel normals (Lensch et al. 2003). Writes a material folder\n"
+      "(material.json, mesh, EXR maps, normal.exr) and OUT/report/.\n"
       "Example: svbrdf reconstruct capture/scene.json --out material --max-clusters 6");
   c->add_option("scene", job->scene_path, "capture scene.json")->required();
   c->add_option("--out", job->out_dir, "output material folder")->required();
@@ -30,6 +31,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
   c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
+  c->add_option("--normals", job->normals.mode,
+                "per-texel normal refinement: on (kept only if the held-out error drops), off, force")
+      ->check(CLI::IsMember({"on", "off", "force"}));
+  c->add_option("--normal-prior", job->normals.prior_tilt, "prior std of tan(tilt) from the mesh normal (> 0)");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {

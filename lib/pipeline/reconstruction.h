@@ -1,6 +1,6 @@
 // The `reconstruct` job end to end: read a capture, gather per-texel
 // samples, estimate the SVBRDF (progressive clustering, model selection,
-// NNLS weights), write the material folder and a report with pictures and a
+// NNLS weights), refine per-texel normals (lib/normals), write the material folder and a report with pictures and a
 // summary JSON. Per-stage timings and peak memory are recorded.
 #pragma once
 #include <nlohmann/json.hpp>
@@ -8,6 +8,7 @@
 
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
+#include "normals/refine.h"
 
 namespace svbrdf {
 
@@ -16,6 +17,7 @@ struct ReconstructionJob {
   std::string out_dir;
   GatherOptions gather;
   ReconstructOptions estimate;
+  NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
   bool report = true;  // pictures and summary under out_dir/report
 };
 

@@ -1,0 +1,118 @@
+// The measurement model of one BRDF sample under a tilted shading normal, and
+// the Ceres cost functors of the per-texel normal fit (internal to
+// lib/normals and its tests; templated on the scalar so ceres::Jet flows through).
+//
+// Samples (lib/gather/samples.h) are stored in the texel's mesh frame: z is
+// the interpolated mesh normal n0, x the UV tangent t, y = n0 x t. The
+// refined normal is parametrised on the tangent plane by two numbers (a, b):
+//     n(a, b) = normalize(a t + b s + n0)      (local: normalize(a, b, 1)),
+// so (a, b) = (0, 0) is the mesh normal, every direction of the upper
+// hemisphere has exactly one (a, b), and tan(tilt) = |(a, b)|.
+// The shading frame keeps the tangent direction (Gram-Schmidt of t against n),
+// as relight does with the face's dP/du, so anisotropic models stay aligned.
+//
+// A sample measured y_c = f_c(wi, wo) cos_i(n) s and gather stored
+// geom = cos_i(n0) s, hence under the normal n the prediction is
+//     y_c = sum_k w_kc f_kc(wi', wo') geom cos_i(n) / cos_i(n0),
+// with wi', wo' the directions in the tilted frame.
+#pragma once
+#include <cmath>
+#include <vector>
+
+#include "brdf/model.h"
+#include "brdf/model_eval.h"
+#include "core/error.h"
+
+namespace svbrdf::normals {
+
+// One sample of a texel, in its mesh frame (copied from the SampleSet).
+struct TexelSample {
+  double wi[3], wo[3];
+  double geom;
+  double y[3];
+};
+
+// A basis material with the texel's mixing weights per channel.
+struct WeightedBasis {
+  const ModelSpec* spec = nullptr;
+  std::vector<double> params;
+  double w[3] = {0, 0, 0};
+};
+
+// Largest parameter vector the functors hold on the stack.
+constexpr int kMaxModelParams = 64;
+
+// Directions of a sample in the frame of the normal normalize(a, b, 1) and
+// the ratio cos_i(n) / cos_i(n0). Returns false when the light or the viewer
+// is below the tilted surface (the sample then predicts black).
+template <class T>
+bool TiltedDirections(const T* ab, const TexelSample& s, Vec3T<T>* wi, Vec3T<T>* wo, T* cos_ratio) {
+  using std::sqrt;
+  const T inv = T(1) / sqrt(ab[0] * ab[0] + ab[1] * ab[1] + T(1));
+  const Vec3T<T> n(ab[0] * inv, ab[1] * inv, inv);
+  // Tangent: (1, 0, 0) made orthogonal to n; |t|^2 = 1 - n_x^2 > 0 since n_z > 0.
+  Vec3T<T> t(T(1) - n.x() * n.x(), -n.x() * n.y(), -n.x() * n.z());
+  t /= sqrt(t.squaredNorm());
+  const Vec3T<T> b = n.cross(t);
+  const Vec3T<T> li(T(s.wi[0]), T(s.wi[1]), T(s.wi[2])), lo(T(s.wo[0]), T(s.wo[1]), T(s.wo[2]));
+  *wi = Vec3T<T>(li.dot(t), li.dot(b), li.dot(n));
+  *wo = Vec3T<T>(lo.dot(t), lo.dot(b), lo.dot(n));
+  *cos_ratio = wi->z() / s.wi[2];
+  return wi->z() > T(0) && wo->z() > T(0);
+}
+
+// Prediction of basis k alone (weight 1) for sample s under normal (a, b).
+template <class T>
+void PredictBasis(const WeightedBasis& basis, const TexelSample& s, const T* ab, T* rgb) {
+  Vec3T<T> wi, wo;
+  T ratio;
+  if (!TiltedDirections(ab, s, &wi, &wo, &ratio)) {
+    rgb[0] = rgb[1] = rgb[2] = T(0);
+    return;
+  }
+  const int np = basis.spec->NumParams();
+  T p[kMaxModelParams];
+  for (int j = 0; j < np; ++j) p[j] = T(basis.params[j]);
+  EvalModel(*basis.spec, p, wi, wo, rgb);
+  for (int c = 0; c < 3; ++c) rgb[c] *= ratio * s.geom;
+}
+
+// Residuals prediction - measurement (3 channels) of one sample under the
+// texel's weighted basis materials; parameter block: (a, b).
+struct NormalSampleCost {
+  const TexelSample* sample;
+  const std::vector<WeightedBasis>* basis;
+
+  template <class T>
+  bool operator()(const T* ab, T* residual) const {
+    T sum[3] = {T(0), T(0), T(0)};
+    for (const WeightedBasis& b : *basis) {
+      T rgb[3];
+      PredictBasis(b, *sample, ab, rgb);
+      for (int c = 0; c < 3; ++c) sum[c] += b.w[c] * rgb[c];
+    }
+    for (int c = 0; c < 3; ++c) residual[c] = sum[c] - sample->y[c];
+    return true;
+  }
+};
+
+// Gaussian prior of the tilt towards the mesh normal: residuals scale * (a, b),
+// scale = noise sigma / prior sigma of tan(tilt) (see refine.h).
+struct TiltPrior {
+  double scale;
+  template <class T>
+  bool operator()(const T* ab, T* residual) const {
+    residual[0] = scale * ab[0];
+    residual[1] = scale * ab[1];
+    return true;
+  }
+};
+
+// Throws when a model has more parameters than the functors hold.
+inline void CheckParamCount(const ModelSpec& spec) {
+  if (spec.NumParams() > kMaxModelParams)
+    throw Error(Msg("normal refinement: model ", spec.Label(), " has ", spec.NumParams(), " parameters, at most ",
+                    kMaxModelParams, " supported"));
+}
+
+}  // namespace svbrdf::normals

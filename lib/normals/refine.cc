@@ -1,0 +1,414 @@
+#include "normals/refine.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "cluster/nnls.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "core/rng.h"
+#include "normals/normal_cost.h"
+
+namespace svbrdf {
+
+using normals::NormalSampleCost;
+using normals::PredictBasis;
+using normals::TexelSample;
+using normals::TiltPrior;
+using normals::WeightedBasis;
+
+void NormalOptions::Check() const {
+  auto fail = [](const char* name, auto value, const char* rule) {
+    throw Error(Msg("normal refinement: ", name, " = ", value, ": must be ", rule));
+  };
+  if (mode != "on" && mode != "off" && mode != "force") fail("--normals", mode, "on, off or force");
+  if (min_samples < 3) fail("min_samples", min_samples, ">= 3");
+  if (!(prior_tilt > 0 && std::isfinite(prior_tilt))) fail("prior_tilt", prior_tilt, "> 0");
+  if (!std::isfinite(noise)) fail("noise", noise, "finite (< 0 = estimated)");
+  if (!(robust_sigmas >= 0)) fail("robust_sigmas", robust_sigmas, ">= 0");
+  if (!(max_tilt_deg > 0 && max_tilt_deg <= 85)) fail("max_tilt_deg", max_tilt_deg, "in (0, 85]");
+  if (iterations < 1) fail("iterations", iterations, ">= 1");
+  if (max_iterations < 1) fail("max_iterations", max_iterations, ">= 1");
+  if (decision_texels < 100) fail("decision_texels", decision_texels, ">= 100");
+  if (!(min_improvement >= 0 && min_improvement < 1)) fail("min_improvement", min_improvement, "in [0, 1)");
+  if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) fail("holdout_fraction", holdout_fraction, "in (0, 0.9)");
+}
+
+std::string NormalRefinement::Report() const {
+  std::ostringstream os;
+  os << "normals " << (kept ? "kept" : "not kept") << ": held-out RMSE " << heldout_rmse_mesh << " with mesh normals, "
+     << heldout_rmse_refined << " refined (" << decision_texels << " texels); " << texels_refined
+     << " texels refined, tilt mean " << mean_tilt_deg << " deg, median " << median_tilt_deg << " deg, noise sigma "
+     << noise_sigma;
+  return os.str();
+}
+
+std::vector<char> HeldOutImages(int num_images, double holdout_fraction, uint64_t seed) {
+  // The clustering's rule (lib/cluster): images ordered by a seeded hash, the
+  // first round(fraction * n) held out, none when there is only one photo.
+  std::vector<std::pair<double, int>> order;
+  for (int im = 0; im < num_images; ++im) order.emplace_back(HashUniform(seed, uint64_t(im), 0x401d), im);
+  std::sort(order.begin(), order.end());
+  std::vector<char> held(num_images, 0);
+  const int num_held = std::max(1, int(std::lround(holdout_fraction * num_images)));
+  for (int j = 0; j < num_held && num_images > 1; ++j) held[order[j].second] = 1;
+  return held;
+}
+
+namespace {
+
+constexpr double kPriorSamples = 1.0;  // weight of the clustering's weights in the re-solve, in samples
+
+// Per-texel state of the alternation: tilt (a, b) and mixing weights.
+struct State {
+  std::vector<double> ab;     // 2 per texel
+  std::vector<float> w;       // K*3 per texel
+};
+
+class Refiner {
+ public:
+  Refiner(const SampleSet& s, const Atlas& atlas, const SvbrdfEstimate& est, const NormalOptions& o)
+      : s_(s), atlas_(atlas), est_(est), o_(o), K_(int(est.basis.size())), nt_(s.num_texels) {
+    if (est.num_texels != nt_ || est.weights.size() != size_t(nt_) * K_ * 3)
+      throw Error(Msg("normal refinement: the estimate has ", est.num_texels, " texels, the samples ", nt_));
+    for (const BasisMaterial& b : est.basis) normals::CheckParamCount(b.spec);
+    int num_images = 0;
+    for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
+    held_image_ = HeldOutImages(num_images, o.holdout_fraction, o.seed);
+    max_ab_ = std::tan(o.max_tilt_deg * kPi / 180.0);
+    support_.resize(nt_);
+    for (int t = 0; t < nt_; ++t) {
+      // Materials of the texel and its 8 neighbours: a tilted normal must not
+      // let a material in that the clustering kept out of the neighbourhood.
+      std::vector<char> used(K_, 0);
+      auto mark = [&](int u) {
+        for (int k = 0; k < K_; ++k)
+          for (int c = 0; c < 3; ++c) used[k] |= est.weights[(size_t(u) * K_ + k) * 3 + c] > 0;
+      };
+      mark(t);
+      const Texel& tx = atlas.texels[t];
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = tx.x + dx, y = tx.y + dy;
+          if ((dx || dy) && x >= 0 && y >= 0 && x < atlas.width && y < atlas.height && atlas.At(x, y) >= 0 &&
+              atlas.At(x, y) < nt_)
+            mark(atlas.At(x, y));
+        }
+      for (int k = 0; k < K_; ++k)
+        if (used[k]) support_[t].push_back(k);
+    }
+  }
+
+  // Samples of texel t: training ones (`which` = 0), held-out ones (1) or all (2).
+  std::vector<TexelSample> Samples(int t, int which) const {
+    std::vector<TexelSample> out;
+    for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
+      const bool held = held_image_[s_.image[i]];
+      if ((which == 0 && held) || (which == 1 && !held)) continue;
+      TexelSample ts;
+      for (int c = 0; c < 3; ++c) {
+        ts.wi[c] = s_.wi[c][i], ts.wo[c] = s_.wo[c][i], ts.y[c] = s_.y[c][i];
+      }
+      ts.geom = s_.geom[i];
+      out.push_back(ts);
+    }
+    return out;
+  }
+
+  std::vector<WeightedBasis> Basis(int t, const float* w) const {
+    std::vector<WeightedBasis> out;
+    for (int k : support_[t]) {
+      WeightedBasis b;
+      b.spec = &est_.basis[k].spec;
+      b.params = est_.basis[k].params;
+      for (int c = 0; c < 3; ++c) b.w[c] = w[k * 3 + c];
+      if (b.w[0] > 0 || b.w[1] > 0 || b.w[2] > 0) out.push_back(std::move(b));
+    }
+    return out;
+  }
+
+  // Levenberg-Marquardt for the tilt (a, b) of one texel, weights fixed.
+  void SolveNormal(const std::vector<TexelSample>& fit, const std::vector<WeightedBasis>& basis, double sigma,
+                   double* ab) const {
+    if (basis.empty() || fit.empty()) return;
+    ceres::Problem::Options po;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(po);
+    ceres::CauchyLoss loss(std::max(1e-12, o_.robust_sigmas * sigma));
+    for (const TexelSample& ts : fit)
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<NormalSampleCost, 3, 2>(new NormalSampleCost{&ts, &basis}),
+          o_.robust_sigmas > 0 ? &loss : nullptr, ab);
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<TiltPrior, 2, 2>(new TiltPrior{sigma / o_.prior_tilt}),
+                             nullptr, ab);
+    for (int j = 0; j < 2; ++j) {
+      problem.SetParameterLowerBound(ab, j, -max_ab_);
+      problem.SetParameterUpperBound(ab, j, max_ab_);
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = o_.max_iterations;
+    so.function_tolerance = 1e-8;
+    so.parameter_tolerance = 1e-8;
+    so.num_threads = 1;  // parallel over texels instead
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    const double start[2] = {ab[0], ab[1]};
+    ceres::Solve(so, &problem, &summary);
+    if (summary.termination_type == ceres::FAILURE || !std::isfinite(ab[0]) || !std::isfinite(ab[1]))
+      ab[0] = start[0], ab[1] = start[1];
+  }
+
+  // Mixing weights by NNLS with the normal (a, b), over the texel's support,
+  // with a weak prior towards w0 (the clustering's weights).
+  void SolveWeights(int t, const std::vector<TexelSample>& fit, const double* ab, const float* w0, float* w) const {
+    const std::vector<int>& sup = support_[t];
+    const int m = int(sup.size());
+    std::fill(w, w + K_ * 3, 0.0f);
+    if (m == 0 || fit.empty()) return;
+    Eigen::MatrixXd AtA[3], Atb[3];
+    for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(m, m), Atb[c] = Eigen::MatrixXd::Zero(m, 1);
+    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P(m, 3);
+    for (const TexelSample& ts : fit) {
+      for (int j = 0; j < m; ++j) {
+        WeightedBasis b;
+        b.spec = &est_.basis[sup[j]].spec;
+        b.params = est_.basis[sup[j]].params;
+        PredictBasis(b, ts, ab, P.row(j).data());
+      }
+      for (int c = 0; c < 3; ++c) {
+        AtA[c] += P.col(c) * P.col(c).transpose();
+        Atb[c] += P.col(c) * ts.y[c];
+      }
+    }
+    const double n = double(fit.size());
+    auto prior = [&](Eigen::MatrixXd& A, Eigen::VectorXd b, const Eigen::VectorXd& target) {
+      const double lambda = kPriorSamples * A.trace() / (m * n) + 1e-12;
+      A.diagonal().array() += lambda;
+      b += lambda * target;
+      return NnlsNormal(A, b);
+    };
+    if (est_.per_channel_weights) {
+      for (int c = 0; c < 3; ++c) {
+        Eigen::VectorXd target(m);
+        for (int j = 0; j < m; ++j) target[j] = w0[sup[j] * 3 + c];
+        const Eigen::VectorXd x = prior(AtA[c], Atb[c].col(0), target);
+        for (int j = 0; j < m; ++j) w[sup[j] * 3 + c] = float(x[j]);
+      }
+    } else {
+      Eigen::MatrixXd A = AtA[0] + AtA[1] + AtA[2];
+      Eigen::VectorXd target(m);
+      for (int j = 0; j < m; ++j) target[j] = (w0[sup[j] * 3] + w0[sup[j] * 3 + 1] + w0[sup[j] * 3 + 2]) / 3.0;
+      const Eigen::VectorXd x = prior(A, (Atb[0] + Atb[1] + Atb[2]).col(0), target);
+      for (int j = 0; j < m; ++j)
+        for (int c = 0; c < 3; ++c) w[sup[j] * 3 + c] = float(x[j]);
+    }
+  }
+
+  // Squared residuals (per channel) of samples under (a, b) and weights w.
+  void Residuals(int t, const std::vector<TexelSample>& samples, const double* ab, const float* w,
+                 std::vector<float>* abs_residuals, double* sse) const {
+    const std::vector<WeightedBasis> basis = Basis(t, w);
+    for (const TexelSample& ts : samples) {
+      double r[3];
+      NormalSampleCost{&ts, &basis}(ab, r);
+      for (int c = 0; c < 3; ++c) {
+        if (abs_residuals) abs_residuals->push_back(float(std::abs(r[c])));
+        if (sse) *sse += r[c] * r[c];
+      }
+    }
+  }
+
+  // Robust noise estimate: 1.4826 x median |residual| over the fitted samples of `texels`.
+  double Sigma(const std::vector<int>& texels, int which, const State& st) const {
+    if (o_.noise >= 0) return std::max(o_.noise, 1e-12);
+    std::vector<std::vector<float>> per(texels.size());
+    ParallelFor(long(texels.size()), o_.threads, [&](long j) {
+      const int t = texels[j];
+      Residuals(t, Samples(t, which), &st.ab[2 * size_t(j)], &st.w[size_t(j) * K_ * 3], &per[j], nullptr);
+    }, 64);
+    std::vector<float> all;
+    for (auto& v : per) all.insert(all.end(), v.begin(), v.end());
+    if (all.empty()) return 1e-12;
+    std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
+    return std::max(1e-12, 1.4826 * all[all.size() / 2]);
+  }
+
+  // Alternates normals and weights on `texels` (state index j = position in
+  // `texels`), fitting samples of kind `which` (0 training, 2 all). With
+  // `refine` false only the weights are solved (mesh normals). Returns sigma.
+  double Run(const std::vector<int>& texels, int which, bool refine, const std::vector<Vec2>* start, State* st,
+             Progress* progress) const {
+    const long n = long(texels.size());
+    // Start: mesh normals (or `start`), weights re-solved from the
+    // clustering's (the same solver for both arms of the decision).
+    ParallelFor(n, o_.threads, [&](long j) {
+      const int t = texels[j];
+      st->ab[2 * j] = refine && start ? (*start)[t].x() : 0.0;
+      st->ab[2 * j + 1] = refine && start ? (*start)[t].y() : 0.0;
+      SolveWeights(t, Samples(t, which), &st->ab[2 * j], Est(t), &st->w[size_t(j) * K_ * 3]);
+    }, 64);
+    double sigma = Sigma(texels, which, *st);
+    if (!refine) return sigma;
+    for (int it = 0; it < o_.iterations; ++it) {
+      ParallelFor(n, o_.threads, [&](long j) {
+        const int t = texels[j];
+        const std::vector<TexelSample> fit = Samples(t, which);
+        float* w = &st->w[size_t(j) * K_ * 3];
+        SolveNormal(fit, Basis(t, w), sigma, &st->ab[2 * j]);
+        SolveWeights(t, fit, &st->ab[2 * j], Est(t), w);
+        if (progress) progress->Tick();
+      }, 16);
+      sigma = Sigma(texels, which, *st);
+    }
+    return sigma;
+  }
+
+  double HeldoutSse(const std::vector<int>& texels, const State& st, int64_t* count) const {
+    std::vector<double> sse(texels.size(), 0.0);
+    std::vector<int64_t> cnt(texels.size(), 0);
+    ParallelFor(long(texels.size()), o_.threads, [&](long j) {
+      const std::vector<TexelSample> held = Samples(texels[j], 1);
+      Residuals(texels[j], held, &st.ab[2 * j], &st.w[size_t(j) * K_ * 3], nullptr, &sse[j]);
+      cnt[j] = 3 * int64_t(held.size());
+    }, 64);
+    double sum = 0;
+    for (size_t j = 0; j < texels.size(); ++j) sum += sse[j], *count += cnt[j];
+    return sum;
+  }
+
+  const float* Est(int t) const { return &est_.weights[size_t(t) * K_ * 3]; }
+  int K() const { return K_; }
+  int num_texels() const { return nt_; }
+  bool IsHeld(int64_t i) const { return held_image_[s_.image[i]]; }
+
+ private:
+  const SampleSet& s_;
+  const Atlas& atlas_;
+  const SvbrdfEstimate& est_;
+  const NormalOptions& o_;
+  const int K_, nt_;
+  std::vector<char> held_image_;
+  std::vector<std::vector<int>> support_;
+  double max_ab_ = 1.0;
+};
+
+State MakeState(size_t n, int K) { return State{std::vector<double>(2 * n, 0.0), std::vector<float>(n * K * 3, 0.0f)}; }
+
+}  // namespace
+
+NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, const SvbrdfEstimate& est,
+                               const NormalOptions& o, const std::vector<Vec2>* start) {
+  o.Check();
+  NormalRefinement out;
+  const int nt = samples.num_texels;
+  out.normal.resize(nt);
+  out.refined.assign(nt, 0);
+  out.tilt.assign(nt, Vec2::Zero());
+  if (start && int(start->size()) != nt) throw Error("normal refinement: start tilts do not match the texels");
+  out.weights = est.weights;
+  for (int t = 0; t < nt; ++t) out.normal[t] = atlas.texels[t].normal;
+  if (!o.Enabled() || est.basis.empty()) return out;
+  const Refiner r(samples, atlas, est, o);
+  const int K = r.K();
+
+  // Texels with enough samples: all of them for the final fit, those with
+  // enough training and some held-out samples for the decision.
+  std::vector<int> texels, candidates;
+  for (int t = 0; t < nt; ++t) {
+    int64_t train = 0, held = 0;
+    for (int64_t i = samples.texel_begin[t]; i < samples.texel_begin[t + 1]; ++i) (r.IsHeld(i) ? held : train)++;
+    if (train + held >= o.min_samples) texels.push_back(t);
+    // The decision needs texels that can be fitted on training photos alone.
+    if (train >= o.min_samples && held > 0) candidates.push_back(t);
+  }
+  if (texels.empty()) return out;
+  // A seeded subset for the decision (hash order, then texel order).
+  if (long(candidates.size()) > o.decision_texels) {
+    std::vector<std::pair<uint64_t, int>> keyed;
+    for (int t : candidates) keyed.emplace_back(StreamSeed(o.seed, uint64_t(t), 0x6e6d), t);
+    std::nth_element(keyed.begin(), keyed.begin() + o.decision_texels, keyed.end());
+    keyed.resize(o.decision_texels);
+    candidates.clear();
+    for (const auto& kv : keyed) candidates.push_back(kv.second);
+    std::sort(candidates.begin(), candidates.end());
+  }
+  const bool decide = o.mode == "on" && !candidates.empty();
+  Progress progress("refine normals", long(o.iterations) * (long(texels.size()) + (decide ? long(candidates.size()) : 0)),
+                    o.progress);
+
+  out.kept = true;
+  if (decide) {
+    out.decision_texels = long(candidates.size());
+    State mesh = MakeState(candidates.size(), K), tilted = MakeState(candidates.size(), K);
+    r.Run(candidates, 0, false, nullptr, &mesh, nullptr);
+    r.Run(candidates, 0, true, start, &tilted, &progress);
+    int64_t n_mesh = 0, n_tilted = 0;
+    const double sse_mesh = r.HeldoutSse(candidates, mesh, &n_mesh);
+    const double sse_tilted = r.HeldoutSse(candidates, tilted, &n_tilted);
+    out.heldout_rmse_mesh = std::sqrt(sse_mesh / std::max<int64_t>(1, n_mesh));
+    out.heldout_rmse_refined = std::sqrt(sse_tilted / std::max<int64_t>(1, n_tilted));
+    out.kept = sse_tilted < (1.0 - o.min_improvement) * sse_mesh;
+  }
+  if (!out.kept) {
+    progress.Finish();
+    return out;
+  }
+
+  State st = MakeState(texels.size(), K);
+  out.noise_sigma = r.Run(texels, 2, true, start, &st, &progress);
+  progress.Finish();
+  std::vector<double> tilt;
+  for (size_t j = 0; j < texels.size(); ++j) {
+    const int t = texels[j];
+    const Texel& tx = atlas.texels[t];
+    const Vec3 local = Vec3(st.ab[2 * j], st.ab[2 * j + 1], 1.0).normalized();
+    out.normal[t] = Frame::FromNormalTangent(tx.normal, tx.tangent).ToWorld(local).normalized();
+    out.refined[t] = 1;
+    out.tilt[t] = Vec2(st.ab[2 * j], st.ab[2 * j + 1]);
+    std::copy(st.w.begin() + j * K * 3, st.w.begin() + (j + 1) * K * 3, out.weights.begin() + size_t(t) * K * 3);
+    tilt.push_back(std::acos(std::clamp(local.z(), -1.0, 1.0)) * 180.0 / kPi);
+  }
+  out.texels_refined = long(texels.size());
+  double sum = 0;
+  for (double a : tilt) sum += a;
+  out.mean_tilt_deg = sum / tilt.size();
+  std::nth_element(tilt.begin(), tilt.begin() + tilt.size() / 2, tilt.end());
+  out.median_tilt_deg = tilt[tilt.size() / 2];
+  return out;
+}
+
+}  // namespace svbrdf
+
+namespace svbrdf {
+
+SampleSet ReorientSamples(const SampleSet& s, const std::vector<Vec2>& tilt) {
+  if (int(tilt.size()) != s.num_texels) throw Error("ReorientSamples: one tilt per texel needed");
+  SampleSet out;
+  out.num_texels = s.num_texels;
+  out.Reserve(s.size());
+  out.texel_begin.push_back(0);
+  for (int t = 0; t < s.num_texels; ++t) {
+    const double ab[2] = {tilt[t].x(), tilt[t].y()};
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      TexelSample ts;
+      for (int c = 0; c < 3; ++c) ts.wi[c] = s.wi[c][i], ts.wo[c] = s.wo[c][i];
+      Vec3 wi, wo;
+      double ratio;
+      if (!normals::TiltedDirections(ab, ts, &wi, &wo, &ratio)) continue;
+      const float fwi[3] = {float(wi.x()), float(wi.y()), float(wi.z())};
+      const float fwo[3] = {float(wo.x()), float(wo.y()), float(wo.z())};
+      const float y[3] = {s.y[0][i], s.y[1][i], s.y[2][i]};
+      out.Push(t, s.image[i], fwi, fwo, float(s.geom[i] * ratio), y);
+    }
+    out.texel_begin.push_back(out.size());
+  }
+  return out;
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,95 @@
+// Per-texel normal refinement after the clustering, in the style of Lensch et
+// al. 2003 ("Image-based reconstruction of spatially varying materials",
+// ACM TOG 22(2), sec. 6: the basis materials are known, so a texel's samples
+// determine its normal): the mesh normal is only the smooth, coarse geometry;
+// bumps, scratches and mis-registered facets tilt the true shading normal, and
+// a tilted normal moves highlights and shading that no mixing weight can move.
+//
+// Per texel with at least `min_samples` samples (others keep the mesh normal):
+//  1. Normal: minimise over (a, b) (tangent-plane parametrisation, normal_cost.h)
+//        sum_i rho(|pred_i(a, b) - y_i|^2) + (sigma / tau)^2 (a^2 + b^2)
+//     with Ceres (Levenberg-Marquardt, autodiff), the texel's weights fixed.
+//     rho: Cauchy loss at `robust_sigmas` sigma (samples that the model cannot
+//     explain: misregistered pixels, interreflections). The prior is the MAP
+//     term of a Gaussian prior on tan(tilt) with std tau = `prior_tilt`,
+//     given Gaussian noise of std sigma on each channel of y: with little or
+//     noisy data the normal stays at the mesh normal, with much clean data the
+//     data decide. sigma is estimated from the data (`noise` < 0): 1.4826 x
+//     the median absolute residual over all fitted sample channels under the
+//     current normals and weights (first the mesh normals: an over-estimate,
+//     hence a stronger, safe prior; re-estimated after every pass).
+//  2. Weights: re-solved by NNLS with the refined normal over the materials
+//     the texel or its 8 neighbours use, with a weak prior (one sample's
+//     worth) towards the clustering's weights; then 1. and 2. once more
+//     (`iterations` passes in all).
+// Whether the refinement is kept is decided on held-out photos (the same
+// whole-photo split as the clustering's, so the basis materials never saw
+// them): on up to `decision_texels` texels, normals and weights are fitted on
+// the training photos with and without refinement (the same weight solver for
+// both), and the refined normals are kept only if the held-out squared error
+// drops by `min_improvement` (relative). The kept normals are then fitted on
+// all samples. Deterministic for a seed and independent of the thread count
+// (texels are independent; sums are taken in texel order).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "cluster/reconstruct.h"
+#include "gather/samples.h"
+
+namespace svbrdf {
+
+struct NormalOptions {
+  // "on": refine, keep if the held-out error drops; "off": skip;
+  // "force": refine and keep whatever the held-out error says.
+  std::string mode = "on";
+  int min_samples = 4;          // samples a texel needs for its own normal (the prior keeps the rest in check)
+  double prior_tilt = 0.35;     // tau: prior std of tan(tilt) per tangent axis (0.35 ~ 19 degrees), > 0
+  double noise = -1.0;          // sigma of y per channel; < 0: estimated from the residuals
+  double robust_sigmas = 3.0;   // Cauchy loss scale in sigmas; 0 = plain least squares
+  double max_tilt_deg = 60.0;   // bound of the tilt per tangent axis, in (0, 85]
+  int iterations = 2;           // normal + weights passes, >= 1
+  bool recluster = true;        // when kept: cluster again on reoriented samples, refine again (pipeline)
+  int max_iterations = 20;      // Levenberg-Marquardt iterations per texel
+  long decision_texels = 4000;  // texels used for the held-out decision (a seeded subset), >= 100
+  double min_improvement = 0.01;  // relative held-out squared-error drop needed to keep the normals
+  double holdout_fraction = 0.2;  // must match the clustering's (ReconstructOptions)
+  uint64_t seed = 1;              // must match the clustering's
+  int threads = 0;
+  bool progress = true;
+  void Check() const;
+  bool Enabled() const { return mode != "off"; }
+};
+
+struct NormalRefinement {
+  bool kept = false;                // refined normals (and re-solved weights) replace the clustering's
+  std::vector<Vec3> normal;         // per texel, world space, unit (the mesh normal where not refined)
+  std::vector<Vec2> tilt;           // per texel, (a, b) of normal_cost.h in the mesh frame (0 where not refined)
+  std::vector<char> refined;        // per texel: has its own normal
+  std::vector<float> weights;       // [t][k][c], re-solved with the normals (the estimate's when not kept)
+  long texels_refined = 0;
+  double noise_sigma = 0;           // sigma used in the final pass
+  double heldout_rmse_mesh = 0;     // decision: held-out RMSE with mesh normals
+  double heldout_rmse_refined = 0;  // ... and with refined normals
+  long decision_texels = 0;
+  double mean_tilt_deg = 0, median_tilt_deg = 0;  // of refined texels, from the mesh normal
+  std::string Report() const;
+};
+
+// The photos the clustering holds out (ReconstructOptions::holdout_fraction and
+// seed): the same whole-photo rule, so that both stages decide on unseen photos.
+std::vector<char> HeldOutImages(int num_images, double holdout_fraction, uint64_t seed);
+
+// `start`: per-texel tilts to start the refined fits from (e.g. an earlier
+// round's); null = the mesh normals. The prior always pulls towards the mesh normal.
+NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, const SvbrdfEstimate& estimate,
+                               const NormalOptions& options, const std::vector<Vec2>* start = nullptr);
+
+// The samples re-expressed in the frames of the refined normals (directions
+// rotated, geom = cos_i(refined) s), so that a second clustering sees the
+// materials without the shading of the bumps. Samples below a refined
+// texel's horizon (light or viewer) are dropped.
+SampleSet ReorientSamples(const SampleSet& samples, const std::vector<Vec2>& tilt);
+
+}  // namespace svbrdf
