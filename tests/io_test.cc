@@ -503,7 +503,10 @@ TEST(Material, EveryModelRoundTrips) {
     b.name = spec.Label();
     b.spec = spec;
     b.params = spec.InitialParams();
-    for (size_t i = 0; i < b.params.size(); ++i) b.params[i] += 1e-3 * (i + 1);  // distinct, exact in JSON
+    // Distinct values, exact in JSON, inside the range the loader enforces.
+    const std::vector<ParamInfo> info = spec.Params();
+    for (size_t i = 0; i < b.params.size(); ++i)
+      b.params[i] += (b.params[i] + 1e-3 * (i + 1) <= info[i].upper ? 1 : -1) * 1e-3 * (i + 1);
     a.basis.push_back(b);
     a.weights.push_back(Ramp(6, 4, 3));
   }
