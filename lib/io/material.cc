@@ -148,7 +148,8 @@ Material LoadMaterial(const std::string& dir) {
     try {
       m.weights.push_back(ReadImage(path));
       CheckMap(m.weights.back(), m.width, m.height, 3, path);
-      CheckValues(m.weights.back(), 0, std::numeric_limits<float>::max(), path);
+      // Mixing weights are fractions (times a brightness near 1); 1e4 is far beyond any fit.
+      CheckValues(m.weights.back(), 0, 1e4f, path);
     } catch (const Error& e) {
       w.Fail(e.what());
     }
