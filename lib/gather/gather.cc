@@ -211,9 +211,12 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     progress.Tick();
   }
   progress.Finish();
-  if (st.kept == 0) throw Error(Msg("no usable samples in ", scene.images.size(), " views: ", st.Report()));
+  // Named after the scene: a wrong camera, pose or light there is the usual cause.
+  if (st.kept == 0)
+    throw Error(Msg(scene.Resolve("scene.json"), ": no usable samples in ", scene.images.size(),
+                    " views (check cameras, poses, lights and masks): ", st.Report()));
   if (st.signal == 0 || double(st.signal) < options.min_signal_fraction * double(st.kept))
-    throw Error(Msg("no signal: only ", st.signal, " of ", st.kept, " kept samples in ", scene.images.size(),
+    throw Error(Msg(scene.Resolve("scene.json"), ": no signal: only ", st.signal, " of ", st.kept, " kept samples in ", scene.images.size(),
                     " views are above the noise floor (pixel value ", options.noise_floor,
                     "); the photos are (nearly) black. Check the exposure (scene.json images[].exposure and the "
                     "camera's), that the lights were on and match scene.json lights[], and that the masks cover "
