@@ -31,6 +31,8 @@ void SynthOptions::Check() const {
   if (noise < 0 || read_noise < 0 || pose_error_deg < 0 || pose_error_mm < 0 || light_error_mm < 0 || geometry_noise_mm < 0)
     throw Error("synth: noise and error magnitudes must be >= 0");
   if (spp < 1 || spp > 16) throw Error("synth: spp must be in [1, 16]");
+  if (bounces < 0 || bounces > 64) throw Error("synth: bounces must be in [0, 64]");
+  if (bounce_samples < 1 || bounce_samples > 1024) throw Error("synth: bounce_samples must be in [1, 1024]");
   if (detail < 8) throw Error("synth: detail must be >= 8");
 }
 
@@ -90,7 +92,7 @@ SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& 
       "lights", &o.lights)("light_intensity", &o.light_intensity)("flash_intensity", &o.flash_intensity)(
       "exposure", &o.exposure)("format", &o.format)("noise", &o.noise)("read_noise", &o.read_noise)(
       "pose_error_deg", &o.pose_error_deg)("pose_error_mm", &o.pose_error_mm)("light_error_mm", &o.light_error_mm)(
-      "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("seed", &o.seed)("threads", &o.threads)(
+      "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("bounces", &o.bounces)("bounce_samples", &o.bounce_samples)("seed", &o.seed)("threads", &o.threads)(
       "material", &material)("description", &description);
   r.RejectUnknown();
   FieldReader m(material, context + ": material");
@@ -126,7 +128,7 @@ nlohmann::json SynthOptions::ToJson() const {
           {"lights", lights}, {"light_intensity", light_intensity}, {"flash_intensity", flash_intensity},
           {"exposure", exposure}, {"format", format}, {"noise", noise}, {"read_noise", read_noise},
           {"pose_error_deg", pose_error_deg}, {"pose_error_mm", pose_error_mm}, {"light_error_mm", light_error_mm},
-          {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"seed", seed},
+          {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"bounces", bounces}, {"bounce_samples", bounce_samples}, {"seed", seed},
           {"material",
            {{"num_materials", material.num_materials}, {"models", material.models},
             {"texture_size", material.texture_size}, {"blend", material.blend}, {"variation", material.variation},
@@ -285,6 +287,8 @@ void WriteCaptureImages(const SynthOptions& o, const Material& gt, const Scene& 
   ro.samples_per_pixel = o.spp;
   ro.threads = o.threads;
   ro.seed = o.seed;
+  ro.bounces = o.bounces;
+  ro.bounce_samples = o.bounce_samples;
   for (size_t i = 0; i < truth.images.size(); ++i) {
     RenderedView v = RenderView(tracer, shader, truth, i, ro);
     ApplySensor(o, stream * 100000 + i, &v.color);
