@@ -9,7 +9,11 @@
 // `bounces` > 0 adds indirect light by path tracing (for synthetic captures
 // that measure robustness to interreflection).
 #pragma once
+#include <functional>
 #include <string>
+
+#include "core/rng.h"
+#include "light/envmap.h"
 
 #include "io/material.h"
 #include "io/scene.h"
@@ -32,6 +36,10 @@ struct RelightOptions {
   // throughput, at most 1). Deterministic for `seed`. 0 = direct light only.
   int bounces = 0;
   int bounce_samples = 4;
+  // Environment lighting (RenderViewEnvironment) instead of each entry's light:
+  std::string envmap;          // lat-long HDR image (EXR/HDR); empty = use the scene's lights
+  double envmap_scale = 1.0;   // multiplies the map's radiances
+  int env_samples = 64;        // per pixel sample: this many environment + as many cosine samples
   void Check() const;
 };
 
@@ -43,6 +51,22 @@ struct RenderedView {
 // Renders image entry `index` of `scene` (its camera, pose, light, exposure).
 RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene, size_t index,
                         const RelightOptions& options);
+
+// Renders image entry `index` (camera, pose, exposure) lit by the environment
+// instead of the entry's light: direct light with shadows, estimated per
+// pixel sample by multiple importance sampling (balance heuristic) of
+// options.env_samples directions from the environment's luminance sampler
+// and as many cosine-weighted directions about the shading normal, each
+// with a shadow ray (lib/raytrace). Deterministic for options.seed
+// (per-row random streams), multithreaded over rows.
+RenderedView RenderViewEnvironment(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene,
+                                   size_t index, const EnvironmentMap& env, const RelightOptions& options);
+
+// The pixel loop shared by both: radiance(px, py, rng, &hit) per (sub)pixel
+// sample at continuous pixel coordinates; exposure, supersampling and mask.
+using PixelRadiance = std::function<Rgb(double px, double py, Rng& rng, bool* hit)>;
+RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t index, const RelightOptions& options,
+                          const PixelRadiance& radiance);
 
 // The relighting contract: renders every image entry into out_dir/<entry.file>
 // (format from its extension; integer formats encoded per the scene's

@@ -92,8 +92,9 @@ SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& 
       "lights", &o.lights)("light_intensity", &o.light_intensity)("flash_intensity", &o.flash_intensity)(
       "exposure", &o.exposure)("format", &o.format)("noise", &o.noise)("read_noise", &o.read_noise)(
       "pose_error_deg", &o.pose_error_deg)("pose_error_mm", &o.pose_error_mm)("light_error_mm", &o.light_error_mm)(
-      "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("bounces", &o.bounces)("bounce_samples", &o.bounce_samples)("seed", &o.seed)("threads", &o.threads)(
-      "material", &material)("description", &description);
+      "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("seed", &o.seed)("threads", &o.threads)(
+      "material", &material)("description", &description)("mesh_file", &o.mesh_file)("mesh_uvs", &o.mesh_uvs)(
+      "bounces", &o.bounces)("bounce_samples", &o.bounce_samples);
   r.RejectUnknown();
   FieldReader m(material, context + ": material");
   nlohmann::json params = nlohmann::json::array();
@@ -128,7 +129,8 @@ nlohmann::json SynthOptions::ToJson() const {
           {"lights", lights}, {"light_intensity", light_intensity}, {"flash_intensity", flash_intensity},
           {"exposure", exposure}, {"format", format}, {"noise", noise}, {"read_noise", read_noise},
           {"pose_error_deg", pose_error_deg}, {"pose_error_mm", pose_error_mm}, {"light_error_mm", light_error_mm},
-          {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"bounces", bounces}, {"bounce_samples", bounce_samples}, {"seed", seed},
+          {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"seed", seed},
+          {"mesh_file", mesh_file}, {"mesh_uvs", mesh_uvs}, {"bounces", bounces}, {"bounce_samples", bounce_samples},
           {"material",
            {{"num_materials", material.num_materials}, {"models", material.models},
             {"texture_size", material.texture_size}, {"blend", material.blend}, {"variation", material.variation},
@@ -321,9 +323,10 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
   fs::remove_all(tmp);
   fs::create_directories(tmp / "lights");
 
-  Mesh mesh = MakeShape(o.object, o.detail);
+  Mesh mesh = o.mesh_file.empty() ? MakeShape(o.object, o.detail) : LoadShapeFromFile(o.mesh_file, o.material.texture_size);
   GroundTruthOptions gto = o.material;
   gto.seed = StreamSeed(o.seed, 1, o.material.seed);
+  gto.cover_small_triangles = !o.mesh_file.empty();
   Material gt = MakeGroundTruth(mesh, gto);
   SaveMaterial(gt, (tmp / "gt").string());
     WriteFileAtomic((tmp / "lights" / "lamp.ies").string(), kLampIes);
@@ -349,6 +352,7 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
       recorded_mesh.positions[v] += recorded_mesh.normals[v] * g(rng) * o.geometry_noise_mm * 1e-3;
     recorded_mesh.ComputeNormals();
   }
+  if (!o.mesh_uvs) recorded_mesh.texcoords.clear(), recorded_mesh.face_uvs.clear();  // as a scan comes
   SaveObj(recorded_mesh, (tmp / "mesh.obj").string());
   recorded.ground_truth = {{"material", "gt"},
                            {"material_id", "gt/material_id.png"},

@@ -164,7 +164,7 @@ Material MakeGroundTruth(const Mesh& mesh, const GroundTruthOptions& options) {
     if (!options.params.empty()) ApplyParams(&m.basis.back(), options.params[k]);
   }
 
-  const Atlas atlas = BuildAtlas(mesh, m.width, m.height, 2);
+  const Atlas atlas = BuildAtlas(mesh, m.width, m.height, 2, options.cover_small_triangles);
   if (atlas.texels.empty()) throw Error("ground truth: the mesh's UVs cover no texel");
 
   // Well-spread region seeds: farthest-point sampling over texel positions,

@@ -27,6 +27,9 @@ struct GroundTruthOptions {
   double variation = 0.0;           // amplitude of smooth per-texel weight variation (0.1 = +-10 %)
   double bump = 0.0;                // normal-map bump slope (0 = no normal map)
   uint64_t seed = 1;
+  // Not a preset field: set for meshes whose UVs are a generated chart atlas
+  // (triangles smaller than a texel still get painted; atlas/atlas.h).
+  bool cover_small_triangles = false;
   void Check() const;
 };
 
