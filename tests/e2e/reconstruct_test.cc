@@ -48,9 +48,9 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
   return f0;
 }
 
-// mixed_tiny: held-out PSNR measured 23.0 dB with this commit's clustering
-// (minus 2 dB margin); the issue's goal for the metal's F0 is 5 %.
-constexpr double kMixedTinyMinPsnr = 21.0;
+// mixed_tiny: held-out PSNR measured 26.65 dB with the clustering of main
+// at e6a5456 (minus 2 dB margin); the issue's goal for the metal's F0 is 5 %.
+constexpr double kMixedTinyMinPsnr = 24.5;
 constexpr double kMixedTinyF0Tolerance = 0.05;
 
 std::string Scratch(const std::string& name) {
@@ -201,9 +201,10 @@ TEST(Reconstruct, MetalIsRecognisedAsConductor) {
 
 // Real materials (issue 8): rough copper, a coated plastic and matte paint
 // with soft borders and a bump map, with the whole default pipeline. The
-// clustering of this commit does not separate them: measured 1 basis
-// material (Lambert), held-out 23.0 dB (with --clusters 3: 28.2 dB, the
-// coated plastic found as coated-ggx, the metal cluster mixed). The active
+// clustering at e6a5456 does not separate them: measured 2 basis materials
+// (lambert, coated-ggx), held-out 26.65 dB, ARI 0.375 (before the cluster
+// merge: 1 material, 23.0 dB; with --clusters 3: 28.2 dB, the coated plastic
+// found as coated-ggx, the metal cluster mixed). The active
 // test guards that floor; the target (right count, metal recognised) is the
 // disabled test below, to be enabled when the clustering meets it.
 TEST(Reconstruct, MixedMaterialsRegression) {
