@@ -52,7 +52,7 @@ void RegisterSynth(CLI::App& app, Runner* run) {
       if (!a->mesh_file.empty()) o.mesh_file = a->mesh_file;
       if (a->no_mesh_uvs) o.mesh_uvs = false;
       if (a->images > 0) o.num_images = a->images;
-      if (a->materials > 0) o.material.num_materials = a->materials, o.material.models.clear();
+      if (a->materials > 0) o.material.num_materials = a->materials, o.material.models.clear(), o.material.params.clear();
       if (a->width > 0) o.width = a->width;
       if (a->height > 0) o.height = a->height;
       if (!a->lights.empty()) o.lights = a->lights;

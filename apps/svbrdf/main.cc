@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   svbrdf::cli::RegisterReconstruct(app, &run);
   svbrdf::cli::RegisterEvaluate(app, &run);
   svbrdf::cli::RegisterCalibrate(app, &run);
+  svbrdf::cli::RegisterCapture(app, &run);
   svbrdf::cli::RegisterExport(app, &run);
   try {
     app.parse(argc, argv);

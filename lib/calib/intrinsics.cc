@@ -1,5 +1,6 @@
 #include "calib/intrinsics.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -120,10 +121,22 @@ CalibrationResult CalibrateFromDetections(std::vector<ViewCalibration> views, in
       if (!v.used) why += Msg("\n  ", v.name, ": ", v.why);
     return Error(Msg("calibrate: only ", count_used(), " usable view(s) ", stage, ", need ", o.min_views, why));
   };
+  const std::vector<Vec3> obj = o.board.ObjectPoints();
   for (auto& v : views) {
     if (v.used && int(v.points.size()) < o.min_points) {
       v.used = false;
       v.why = Msg("only ", v.points.size(), " board points (need ", o.min_points, ")");
+    }
+    if (!v.used) continue;
+    // Points along one line (a partly hidden ChArUco board) do not fix a homography.
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    Vec2 mean = Vec2::Zero();
+    for (int id : v.ids) mean += obj[id].head<2>() / double(v.ids.size());
+    for (int id : v.ids) cov += (obj[id].head<2>() - mean) * (obj[id].head<2>() - mean).transpose();
+    const double min_spread = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov / double(v.ids.size())).eigenvalues()[0]);
+    if (min_spread < 0.5 * o.board.square) {
+      v.used = false;
+      v.why = Msg("board points nearly collinear (spread ", min_spread / o.board.square, " squares)");
     }
   }
   if (count_used() < o.min_views) throw too_few("with the board");

@@ -179,6 +179,21 @@ std::vector<float> Clustering::Predict(const BasisMaterial& b) const {
   return p;
 }
 
+uint64_t PartitionKey(const std::vector<int>& assign) {
+  std::vector<int> renumber;
+  uint64_t h = 1469598103934665603ull;  // FNV-1a, 64 bit
+  for (int a : assign) {
+    int c = -1;
+    if (a >= 0) {
+      if (a >= int(renumber.size())) renumber.resize(a + 1, -1);
+      if (renumber[a] < 0) renumber[a] = int(std::count_if(renumber.begin(), renumber.end(), [](int r) { return r >= 0; }));
+      c = renumber[a];
+    }
+    h = (h ^ uint64_t(uint32_t(c))) * 1099511628211ull;
+  }
+  return h;
+}
+
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
   BasisMaterial b;
   b.name = Msg("m", index);

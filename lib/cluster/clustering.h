@@ -93,6 +93,10 @@ class Clustering {
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
 
+// Canonical key of a texel partition: the same for any numbering of the
+// clusters (labels renumbered in order of first appearance, then hashed).
+uint64_t PartitionKey(const std::vector<int>& assign);
+
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index);
 
 // Assign and refit until stable or `iterations` done; drops empty clusters.

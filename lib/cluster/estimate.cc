@@ -5,6 +5,7 @@
 #include "cluster/clustering.h"
 #include "cluster/confidence.h"
 #include "cluster/model_selection.h"
+#include "cluster/quality.h"
 #include "cluster/split.h"
 #include "core/error.h"
 
@@ -22,7 +23,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // 1. One cluster.
   cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
   const double heldout = cl.HeldoutRmse();
-  est.history.push_back({1, cl.TrainRmse(), heldout, true});
+  est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
   // 2. Progressive splitting with backtracking (split_search.cc).
@@ -52,6 +53,13 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   log(Msg("weights: ", est.per_channel_weights ? "per channel" : "scalar", " (held-out RMSE scalar ",
           est.heldout_rmse_scalar, ", per channel ", est.heldout_rmse_channel, ")"));
   cl.FinalWeights(est.per_channel_weights, &est.weights, &est.residual);
+
+  // 6. What the model explains poorly (quality.cc).
+  est.cluster_quality = MeasureClusterQuality(cl, est.per_channel_weights);
+  for (const ClusterQuality& q : est.cluster_quality)
+    log(Msg("cluster ", q.cluster, " (", cl.basis()[q.cluster].spec.Label(), ", ", q.texels, " texels): held-out RMSE ",
+            q.heldout_rmse, " = ", 100 * q.heldout_rmse / std::max(1e-300, q.signal_rms), " % of its signal",
+            q.poorly_explained ? ": POORLY EXPLAINED by every candidate model" : ""));
 
   // 5. Confidence and neighbour fill (confidence.cc).
   ConfidenceAndFill(samples, atlas, o, cl.K(), &est);

@@ -12,6 +12,7 @@ void ReconstructOptions::Check() const {
   if (force_clusters < 0 || force_clusters > 16) throw Error(Msg("reconstruct: --clusters must be in [0, 16], got ", force_clusters));
   if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) throw Error("reconstruct: holdout fraction must be in (0, 0.9)");
   if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
+  if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");
   if (!(parsimony >= 0)) throw Error("reconstruct: parsimony must be >= 0");
   if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
   if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");

@@ -1,6 +1,7 @@
 #include "cluster/split.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 
 #include "cluster/nnls.h"
@@ -81,5 +82,42 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
   return side;
 }
 
+
+std::vector<int> GeometrySplitSides(const Clustering& cl, int k) {
+  const SampleSet& s = cl.samples();
+  std::vector<int> texels;
+  for (int t = 0; t < cl.num_texels(); ++t)
+    if (cl.usable()[t] && cl.assign()[t] == k) texels.push_back(t);
+  const size_t T = texels.size();
+  std::vector<int> side(cl.num_texels(), 0);
+  if (T < 4) return side;
+  // Per texel: the mean elevations (local z) of its training light, view and
+  // half vectors: what part of the BRDF's domain the texel was seen in.
+  Eigen::MatrixXd Z(T, 3);
+  for (size_t j = 0; j < T; ++j) {
+    const int t = texels[j];
+    Eigen::Vector3d m = Eigen::Vector3d::Zero();
+    int n = 0;
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      if (cl.holdout()[i]) continue;
+      const Eigen::Vector3d wi(s.wi[0][i], s.wi[1][i], s.wi[2][i]), wo(s.wo[0][i], s.wo[1][i], s.wo[2][i]);
+      m += Eigen::Vector3d(wi.z(), wo.z(), (wi + wo).normalized().z());
+      ++n;
+    }
+    Z.row(j) = (m / std::max(1, n)).transpose();
+  }
+  Z = Z.rowwise() - Z.colwise().mean();
+  for (int q = 0; q < 3; ++q) {
+    const double sd = std::sqrt(Z.col(q).squaredNorm() / T);
+    Z.col(q) /= sd > 1e-12 ? sd : 1.0;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Z.transpose() * Z);
+  const Eigen::VectorXd v = eig.eigenvectors().col(2);
+  std::vector<std::pair<double, int>> proj(T);
+  for (size_t j = 0; j < T; ++j) proj[j] = {Z.row(j).dot(v), texels[j]};
+  std::sort(proj.begin(), proj.end());
+  for (size_t j = 0; j < T; ++j) side[proj[j].second] = j < T / 2 ? 1 : -1;
+  return side;
+}
 
 }  // namespace svbrdf

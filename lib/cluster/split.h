@@ -22,6 +22,14 @@ namespace svbrdf {
 // 2 = gloss amplitudes only (tried in turn when a split does not help).
 std::vector<int> SplitSides(const Clustering& cl, int k, int variant);
 
+// The control split for the honest stopping rule: cluster k's texels halved
+// by where in the BRDF's domain they were seen (mean elevations of their
+// light, view and half vectors), a direction that says nothing about the
+// material. Within one material such a split gains only what model error
+// lets fits specialised to part of the domain gain; a split into materials
+// must gain clearly more. Returns +1/-1 for the texels of cluster k, 0 else.
+std::vector<int> GeometrySplitSides(const Clustering& cl, int k);
+
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`.

@@ -37,4 +37,12 @@ double PairedZ(const std::vector<double>& a, const std::vector<double>& b) {
   return sum / std::max(1e-300, std::sqrt(var * n));
 }
 
+double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> d, zero;
+  for (size_t t = 0; t < a.size(); ++t)
+    if (a[t] + b[t] > 0) d.push_back((a[t] - b[t]) / (a[t] + b[t]));
+  zero.assign(d.size(), 0.0);
+  return PairedZ(d, zero);
+}
+
 }  // namespace svbrdf

@@ -21,4 +21,9 @@ double TrimmedRmse(std::vector<double> e);
 // Paired z statistic: how many standard errors the mean of `b` lies below `a`.
 double PairedZ(const std::vector<double>& a, const std::vector<double>& b);
 
+// As PairedZ on the bounded per-texel changes (a_t - b_t) / (a_t + b_t) of
+// texels with a_t + b_t > 0: how consistently texels improve, not dominated
+// by the few texels with the largest errors (highlights).
+double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b);
+
 }  // namespace svbrdf

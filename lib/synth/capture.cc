@@ -67,6 +67,17 @@ class FieldReader {
 
 #include "synth_presets.inc"  // kPresets: {name, json text} from datasets_synth/*.json
 
+nlohmann::json MaterialParamsJson(const std::vector<MaterialParams>& params) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const MaterialParams& p : params) {
+    nlohmann::json j = nlohmann::json::object();
+    if (!p.metal.empty()) j["metal"] = p.metal;
+    for (const auto& [name, value] : p.values) j[name] = value;
+    out.push_back(j);
+  }
+  return out;
+}
+
 }  // namespace
 
 SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& context) {
@@ -83,10 +94,28 @@ SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& 
       "material", &material)("description", &description)("mesh_file", &o.mesh_file)("mesh_uvs", &o.mesh_uvs);
   r.RejectUnknown();
   FieldReader m(material, context + ": material");
+  nlohmann::json params = nlohmann::json::array();
   m("num_materials", &o.material.num_materials)("models", &o.material.models)(
       "texture_size", &o.material.texture_size)("blend", &o.material.blend)("variation", &o.material.variation)(
-      "bump", &o.material.bump)("seed", &o.material.seed);
+      "bump", &o.material.bump)("seed", &o.material.seed)("params", &params);
   m.RejectUnknown();
+  // "params": one object per material, {"metal": "gold", "<param>": value, ...}.
+  if (!params.is_array()) throw Error(Msg(context, ": material: field 'params': expected an array of objects"));
+  for (size_t k = 0; k < params.size(); ++k) {
+    const std::string where = Msg(context, ": material: params[", k, "]");
+    if (!params[k].is_object()) throw Error(Msg(where, ": expected an object of parameter values"));
+    MaterialParams mp;
+    for (const auto& [key, value] : params[k].items()) {
+      if (key == "metal") {
+        if (!value.is_string()) throw Error(Msg(where, ": field 'metal': expected a string"));
+        mp.metal = value.get<std::string>();
+      } else {
+        if (!value.is_number()) throw Error(Msg(where, ": field '", key, "': expected a number"));
+        mp.values[key] = value.get<double>();
+      }
+    }
+    o.material.params.push_back(mp);
+  }
   o.Check();
   return o;
 }
@@ -102,7 +131,7 @@ nlohmann::json SynthOptions::ToJson() const {
           {"material",
            {{"num_materials", material.num_materials}, {"models", material.models},
             {"texture_size", material.texture_size}, {"blend", material.blend}, {"variation", material.variation},
-            {"bump", material.bump}, {"seed", material.seed}}}};
+            {"bump", material.bump}, {"seed", material.seed}, {"params", MaterialParamsJson(material.params)}}}};
 }
 
 std::vector<std::string> SynthPresetNames() {
