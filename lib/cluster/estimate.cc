@@ -26,8 +26,16 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
-  // 2. Progressive splitting with backtracking (split_search.cc).
-  SearchClusters(cl, &est, log);
+  // 2. Progressive splitting with backtracking (split_search.cc). Under a
+  // deadline, not even one split when it would not fit: a split costs about
+  // four fits like the first (two halves, then refinement refits).
+  const double first_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (o.SecondsLeft() > 4 * first_fit_seconds) {
+    SearchClusters(cl, &est, log);
+  } else {
+    est.cut_by_deadline.push_back("split search");
+    log(Msg("time budget: no time for a split (", o.SecondsLeft(), " s left)"));
+  }
 
   // 3. Model economy per cluster (model_selection.cc). Under a deadline it
   // runs only when it fits: it costs about as much as the search so far
