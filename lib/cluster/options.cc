@@ -1,5 +1,7 @@
 #include "cluster/reconstruct.h"
 
+#include <limits>
+
 #include "core/error.h"
 
 namespace svbrdf {
@@ -19,6 +21,15 @@ void ReconstructOptions::Check() const {
   for (const auto& m : candidate_models) ModelSpec::FromLabel(m);  // throws for unknown labels
   if (!force_model.empty()) ModelSpec::FromLabel(force_model);
   ModelSpec::FromLabel(cluster_model);
+}
+
+}  // namespace svbrdf
+
+namespace svbrdf {
+
+double ReconstructOptions::SecondsLeft() const {
+  if (deadline == std::chrono::steady_clock::time_point::max()) return std::numeric_limits<double>::infinity();
+  return std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
 }
 
 }  // namespace svbrdf
