@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "io/scene.h"
 #include "registration/board_bundle.h"
+#include "registration/capture_job.h"
 #include "registration/project.h"
 #include "registration/silhouette.h"
 #include "synth/raw_photos.h"
@@ -56,6 +57,7 @@ const RawSet& Raw() {
     const BoardTexture tex = DrawBoard(TestBoard(), 48);
     o.board_texture = tex.image;
     o.texture_from_board = tex.texture_from_board;
+    o.board_json = {{"pattern", "charuco"}, {"cols", 6}, {"rows", 5}, {"square", 0.06}, {"marker", 0.045}};
     o.num_images = 12;
     o.num_heldout = 0;
     o.num_lamps = 3;
@@ -233,6 +235,37 @@ TEST(Registration, HdrMergeIsLinear) {
   EXPECT_LT(rel, 0.01);
   EXPECT_GT(bright, 0);
   EXPECT_LT(worst_bright, 0.01);
+}
+
+// The whole `capture` job on the raw set: a contract scene.json whose camera,
+// poses, lamps and registration match the hidden truth.
+TEST(Registration, CaptureJobOnRawPhotos) {
+  const RawSet& raw = Raw();
+  CaptureJob job;
+  job.photos_dir = raw.dir;
+  job.out_dir = raw.dir + "_capture";
+  job.progress = false;
+  const nlohmann::json report = RunCapture(job);
+  const Scene scene = LoadScene(job.out_dir + "/scene.json");
+  ASSERT_GE(scene.images.size(), 7u);
+  EXPECT_LT(std::abs(scene.cameras[0].fx() / raw.truth.camera.fx() - 1), 0.005);
+  double worst_deg = 0, worst_mm = 0, worst_lamp_mm = 0, min_iou = 1;
+  for (const ImageEntry& e : scene.images) {
+    const Rigid3& t = raw.truth.cam_from_world[std::stoi(fs::path(e.file).stem().string())];
+    worst_deg = std::max(worst_deg, AngleDeg(e.cam_from_world.rotation, t.rotation));
+    worst_mm = std::max(worst_mm, 1e3 * (e.cam_from_world.CentreInWorld() - t.CentreInWorld()).norm());
+  }
+  for (const Light& l : scene.lights)
+    worst_lamp_mm = std::max(worst_lamp_mm, 1e3 * (l.position - raw.truth.lamps[l.id - 1]).norm());
+  for (const auto& v : report["registration"]["mask_iou"]) min_iou = std::min(min_iou, v["after"].get<double>());
+  std::printf("capture job: %zu images, poses worst %.3f deg %.2f mm, lamps worst %.2f mm, mask IoU min %.4f\n",
+              scene.images.size(), worst_deg, worst_mm, worst_lamp_mm, min_iou);
+  EXPECT_LT(worst_deg, 0.5);
+  EXPECT_LT(worst_mm, 5.0);
+  EXPECT_LT(worst_lamp_mm, 15.0);
+  EXPECT_GT(min_iou, 0.99);
+  for (const Light& l : scene.lights) EXPECT_NEAR(l.intensity[0], 1.0, 0.05);  // RawPhotoOptions::lamp_intensity
+  fs::remove_all(job.out_dir);
 }
 
 }  // namespace

@@ -212,6 +212,69 @@ TEST(Relight, DeterministicWithSeedAndThreads) {
   EXPECT_NE(va.color.pixels, RenderView(tracer, shader, s, 0, c).color.pixels);
 }
 
+// Interreflection inside a closed Lambertian sphere (radius R, albedo rho)
+// with a point light of intensity I at its centre: every wall point gets the
+// direct irradiance E = I / R^2, and since the form factor from any point of
+// a sphere's inside to an area dA of it is dA / (4 pi R^2), every bounce
+// multiplies the irradiance by rho uniformly. With N bounces the wall's
+// radiance is rho/pi E (1 + rho + ... + rho^N). Paths up to the first
+// Russian roulette have zero variance here; the mean over the image must
+// match the closed form for any N, and N = 0 is the direct-only renderer.
+TEST(Relight, BouncesInsideASphereMatchTheClosedForm) {
+  const double radius = 1.0, rho = 0.5, intensity = 3.0;
+  Mesh mesh = Sphere(radius, Vec3::Zero(), 60);
+  for (Vec3i& f : mesh.faces) std::swap(f[1], f[2]);  // normals inwards
+  if (!mesh.face_uvs.empty())
+    for (Vec3i& f : mesh.face_uvs) std::swap(f[1], f[2]);
+  mesh.ComputeNormals();
+  const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", rho}, {"rd_g", rho}, {"rd_b", rho}});
+  Scene s = OneView(Vec3(0, 0, 0.3), PointLight(Vec3::Zero(), intensity), 64, 48, 40);
+  s.images[0].cam_from_world = Rigid3::LookAt(Vec3(0, 0, 0.3), Vec3(0, 0, -1), Vec3::UnitY());
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  for (int bounces : {0, 1, 3}) {
+    RelightOptions o;
+    o.progress = false;
+    o.bounces = bounces;
+    o.bounce_samples = 8;
+    const RenderedView v = RenderView(tracer, shader, s, 0, o);
+    double sum = 0;
+    int n = 0;
+    for (int y = 0; y < v.color.height; ++y)
+      for (int x = 0; x < v.color.width; ++x) {
+        if (v.mask.at(x, y, 0) == 0) continue;
+        sum += v.color.at(x, y, 1);
+        ++n;
+      }
+    ASSERT_EQ(n, 64 * 48);  // the camera sees only the inside
+    double series = 0;
+    for (int k = 0; k <= bounces; ++k) series += std::pow(rho, k);
+    const double expected = rho / kPi * intensity / (radius * radius) * series;
+    EXPECT_NEAR(sum / n, expected, 0.01 * expected) << bounces << " bounces";
+  }
+}
+
+// A convex object cannot light itself: indirect paths leave it.
+TEST(Relight, ConvexObjectGetsNoIndirectLight) {
+  const Mesh mesh = Sphere(kRadius, Vec3::Zero(), 60);
+  const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", 0.6}, {"rd_g", 0.6}, {"rd_b", 0.6}});
+  const Scene s = OneView(Vec3(0, 0.3, 2.0), PointLight(Vec3(1.0, 1.5, 1.5), 5.0), 64, 48, 60);
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions direct;
+  direct.progress = false;
+  RelightOptions bounced = direct;
+  bounced.bounces = 2;
+  const RenderedView a = RenderView(tracer, shader, s, 0, direct), b = RenderView(tracer, shader, s, 0, bounced);
+  double sa = 0, sb = 0;
+  for (size_t i = 0; i < a.color.pixels.size(); ++i) sa += a.color.pixels[i], sb += b.color.pixels[i];
+  EXPECT_GT(sa, 0);
+  EXPECT_NEAR(sb, sa, 1e-3 * sa);  // only grazing rays on the tessellation can hit the sphere again
+  RelightOptions bad;
+  bad.bounces = -1;
+  EXPECT_THROW(bad.Check(), Error);
+}
+
 TEST(Relight, RejectsBadOptions) {
   RelightOptions o;
   o.samples_per_pixel = 0;

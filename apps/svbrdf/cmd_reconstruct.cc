@@ -30,6 +30,11 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--robust", job->estimate.robust_scale, "Cauchy loss scale of cluster fits (-1 = automatic, 0 = least squares)");
   c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
   c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
+  c->add_option("--time-budget", job->time_budget_s,
+                "anytime: best material within this many seconds (0 = no limit; gathering and one fit always run)");
+  c->add_option("--texel-footprint", job->gather.texel_footprint,
+                "meshes without UVs: chart-atlas texel size in pixel footprints at the median view");
+  c->add_option("--max-atlas-size", job->gather.max_atlas_size, "meshes without UVs: chart-atlas side cap (texels)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")

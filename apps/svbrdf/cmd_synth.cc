@@ -13,6 +13,7 @@ void RegisterSynth(CLI::App& app, Runner* run) {
     std::string preset = "default", config, out;
     std::string object, lights, format;
     int images = -1, materials = -1, width = -1, height = -1, threads = 0, spp = -1;
+    int bounces = -1;
     double noise = -1, pose_deg = -1, pose_mm = -1, light_mm = -1, geom_mm = -1, exposure = -1;
     long seed = -1;
     std::string mesh_file;
@@ -42,6 +43,7 @@ void RegisterSynth(CLI::App& app, Runner* run) {
   c->add_option("--light-error-mm", a->light_mm, "position error written into the lights");
   c->add_option("--geometry-noise-mm", a->geom_mm, "noise written into the mesh");
   c->add_option("--spp", a->spp, "supersampling, n x n per pixel");
+  c->add_option("--bounces", a->bounces, "indirect light: path-traced bounces (0 = direct only)");
   c->add_option("--seed", a->seed, "random seed");
   c->add_option("--threads", a->threads, "worker threads (0 = all cores)");
   c->callback([a, run] {
@@ -64,6 +66,7 @@ void RegisterSynth(CLI::App& app, Runner* run) {
       if (a->light_mm >= 0) o.light_error_mm = a->light_mm;
       if (a->geom_mm >= 0) o.geometry_noise_mm = a->geom_mm;
       if (a->spp > 0) o.spp = a->spp;
+      if (a->bounces >= 0) o.bounces = a->bounces;
       if (a->seed >= 0) o.seed = static_cast<uint64_t>(a->seed);
       o.threads = a->threads;
       const SynthReport r = Synthesize(o, a->out);

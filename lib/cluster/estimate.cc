@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <chrono>
 #include <string>
 
 #include "cluster/clustering.h"
@@ -17,6 +18,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   SvbrdfEstimate est;
   const ModelSpec cluster_spec = ModelSpec::FromLabel(o.force_model.empty() ? o.cluster_model : o.force_model);
   const StageLog log(o.progress);
+  const auto start = std::chrono::steady_clock::now();
 
   // 1. One cluster.
   cl.stage = "initial fit";
@@ -25,15 +27,35 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
-  // 2. Progressive splitting with backtracking (split_search.cc).
+  // 2. Progressive splitting with backtracking (split_search.cc). Under a
+  // deadline, not even one split when it would not fit: a split costs about
+  // four fits like the first (two halves, then refinement refits).
+  const double first_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   cl.stage = "split";
-  SearchClusters(cl, &est, log);
+  if (o.SecondsLeft() > 4 * first_fit_seconds) {
+    SearchClusters(cl, &est, log);
+  } else {
+    est.cut_by_deadline.push_back("split search");
+    log(Msg("time budget: no time for a split (", o.SecondsLeft(), " s left)"));
+  }
 
-  // 3. Model economy per cluster (model_selection.cc).
+  // 3. Model economy per cluster (model_selection.cc). Under a deadline it
+  // runs only when it fits: it costs about as much as the search so far
+  // (measured: 0.7-1.3x), and the clustering model is a good fallback.
+  const double search_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   cl.stage = "model selection";
-  SelectModels(cl, &est, log);
-  cl.stage = "final refinement";
-  Refine(cl, std::max(1, o.refine_iterations - 1));
+  if (o.SecondsLeft() > search_seconds) {
+    SelectModels(cl, &est, log);
+  } else {
+    est.cut_by_deadline.push_back("model selection");
+    log(Msg("time budget: model selection skipped (", o.SecondsLeft(), " s left)"));
+  }
+  if (o.SecondsLeft() > 0) {
+    cl.stage = "final refinement";
+    Refine(cl, std::max(1, o.refine_iterations - 1));
+  } else {
+    est.cut_by_deadline.push_back("final refinement");
+  }
 
   // 4. Mixing weights: scalar or per channel, by held-out error.
   est.heldout_rmse_scalar = cl.HeldoutRmse(false, nullptr, true);

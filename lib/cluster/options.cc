@@ -1,5 +1,7 @@
 #include "cluster/reconstruct.h"
 
+#include <limits>
+
 #include "core/error.h"
 
 namespace svbrdf {
@@ -12,12 +14,22 @@ void ReconstructOptions::Check() const {
   if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
   if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");
   if (!(parsimony >= 0)) throw Error("reconstruct: parsimony must be >= 0");
+  if (mix_radius < 1 || mix_radius > 8) throw Error(Msg("reconstruct: mix radius must be in [1, 8], got ", mix_radius));
   if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
   if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");
   if (candidate_models.empty() && force_model.empty()) throw Error("reconstruct: no candidate models");
   for (const auto& m : candidate_models) ModelSpec::FromLabel(m);  // throws for unknown labels
   if (!force_model.empty()) ModelSpec::FromLabel(force_model);
   ModelSpec::FromLabel(cluster_model);
+}
+
+}  // namespace svbrdf
+
+namespace svbrdf {
+
+double ReconstructOptions::SecondsLeft() const {
+  if (deadline == std::chrono::steady_clock::time_point::max()) return std::numeric_limits<double>::infinity();
+  return std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
 }
 
 }  // namespace svbrdf

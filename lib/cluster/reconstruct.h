@@ -45,6 +45,7 @@
 //  6. Per cluster: held-out RMSE relative to the signal; clusters above
 //     `poor_fit` are reported as poorly explained (no candidate fits them).
 #pragma once
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,10 @@ struct ReconstructOptions {
   double parsimony = 0.001;      // prefer fewer parameters unless the best's RMSE is lower by this x signal RMS
   int64_t selection_samples = 3000;  // samples per candidate fit during model selection
   int refine_iterations = 2;
+  // Per-texel weights mix the materials of every cluster within this many
+  // texels (Chebyshev distance in the atlas): blends wider than one texel and
+  // junctions of three or more regions get all their materials.
+  int mix_radius = 2;
   int min_samples = 3;           // per texel, for fits and confident weights
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
   // cluster's residuals), 0 = plain least squares, > 0 = this scale.
@@ -85,6 +90,14 @@ struct ReconstructOptions {
   int threads = 0;
   uint64_t seed = 1;
   bool progress = true;
+  // Anytime: past this point on the steady clock the split search stops
+  // before a split it has no time for (judged by the last split's duration),
+  // model selection is skipped when it would not finish (the clustering model
+  // is kept), and so is the final refinement; the result is always complete.
+  // Default: no deadline.
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  // Seconds left before the deadline (+inf without one).
+  double SecondsLeft() const;
   void Check() const;
 };
 
@@ -128,6 +141,7 @@ struct SvbrdfEstimate {
   double heldout_rmse = 0;        // final, with the chosen weights mode
   double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;
   std::vector<ClusterQuality> cluster_quality;
+  std::vector<std::string> cut_by_deadline;  // stages shortened or skipped by ReconstructOptions::deadline
 };
 
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options);

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <chrono>
 #include <string>
 #include <unordered_set>
 
@@ -59,7 +60,14 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
   int fails = 0;
   bool lookahead = false;  // the current state is one unaccepted split past the best
   int root_cluster = 0;    // the cluster of the best state whose split is being looked past
+  double step_seconds = 0;  // duration of the last split (Anytime: ReconstructOptions::deadline)
   while (cl.K() < target) {
+    if (o.SecondsLeft() < step_seconds) {
+      est.cut_by_deadline.push_back("split search");
+      log(Msg("time budget: no time for another split (", o.SecondsLeft(), " s left)"));
+      break;
+    }
+    const auto step_start = std::chrono::steady_clock::now();
     variants_tried.resize(cl.K(), 0);
     int k = -1;
     double worst = -1;
@@ -111,6 +119,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       continue;
     }
     const double h = cl.HeldoutRmse(false, &texel_sse);
+    step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
     // Paired tests over texels: on the squared errors (dominated by the
     // texels with the largest errors) or on the bounded per-texel changes

@@ -1,5 +1,7 @@
 #include "pipeline/reconstruction.h"
 
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -92,6 +94,9 @@ nlohmann::json WriteNormalPictures(const Scene& scene, const GatherResult& g, co
 
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   StageTimer timer;
+  const auto start = std::chrono::steady_clock::now();
+  if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
+    throw Error(Msg("reconstruct: --time-budget must be >= 0 seconds, got ", job.time_budget_s));
   timer.Start("load capture");
   const Scene scene = LoadScene(job.scene_path);
   if (scene.images.empty()) throw Error(Msg(job.scene_path, ": images: the capture has no photos"));
@@ -102,7 +107,12 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
 
   timer.Start("fit + cluster");
   ReconstructOptions eo = job.estimate;
+  if (job.time_budget_s > 0)
+    eo.deadline = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(job.time_budget_s - std::max(0.3, 0.05 * job.time_budget_s)));
+  const auto cluster_start = std::chrono::steady_clock::now();
   SvbrdfEstimate est = EstimateSvbrdf(g.samples, g.atlas, eo);
+  const double cluster_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - cluster_start).count();
 
   NormalOptions no = job.normals;
   no.holdout_fraction = eo.holdout_fraction;
@@ -111,12 +121,16 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.progress = no.progress && eo.progress;
   NormalRefinement nr;
   nlohmann::json normals_rounds = nlohmann::json::array();
-  if (no.Enabled()) {
+  if (no.Enabled() && eo.SecondsLeft() <= 0) {
+    est.cut_by_deadline.push_back("normal refinement");
+  } else if (no.Enabled()) {
     timer.Start("refine normals");
     nr = RefineNormals(g.samples, g.atlas, est, no);
     std::fprintf(stderr, "  %s\n", nr.Report().c_str());
     normals_rounds.push_back(NormalsJson(nr, est));
-    if (nr.kept && no.recluster) {
+    const bool recluster_fits = eo.SecondsLeft() > cluster_seconds;
+    if (nr.kept && no.recluster && !recluster_fits) est.cut_by_deadline.push_back("second clustering");
+    if (nr.kept && no.recluster && recluster_fits) {
       // Bumps that the mesh lacks shade the texels of one material
       // differently, which the clustering reads as different materials (or as
       // noise that hides real ones); with the normals known, a second
@@ -156,6 +170,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["clusters"] = est.basis.size();
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["heldout_rmse"] = est.heldout_rmse;
+  if (job.time_budget_s > 0) {
+    summary["time_budget_s"] = job.time_budget_s;
+    summary["cut_by_time_budget"] = est.cut_by_deadline;
+  }
   for (const auto& b : est.basis) summary["basis"].push_back(BasisToJson(b));
   for (const auto& h : est.history)
     summary["cluster_history"].push_back(

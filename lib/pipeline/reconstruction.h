@@ -19,6 +19,12 @@ struct ReconstructionJob {
   ReconstructOptions estimate;
   NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
   bool report = true;  // pictures and summary under out_dir/report
+  // Anytime (seconds, 0 = none): the best material found within this wall
+  // time from the start, always a complete folder. Gathering and one cluster
+  // fit always run; then the clustering stops early, model selection and
+  // normal refinement are skipped when they would not finish in time, and a
+  // reserve (5 %, at least 0.3 s) is kept for writing.
+  double time_budget_s = 0;
 };
 
 // Returns the summary (also written to out_dir/report/summary.json).

@@ -12,7 +12,7 @@ template <class T>
 void ProjectT(CameraModelId model, const T* params, const T* x_cam, T* pixel) {
   const T u = x_cam[0] / x_cam[2], v = x_cam[1] / x_cam[2];
   const T r2 = u * u + v * v;
-  T du = u, dv = v, fx, fy, cx, cy;
+  T du = u, dv = v, fx = T(0), fy = T(0), cx = T(0), cy = T(0);
   switch (model) {
     case CameraModelId::kSimplePinhole: fx = fy = params[0], cx = params[1], cy = params[2]; break;
     case CameraModelId::kPinhole: fx = params[0], fy = params[1], cx = params[2], cy = params[3]; break;

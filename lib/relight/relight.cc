@@ -22,6 +22,9 @@ void RelightOptions::Check() const {
     throw Error(Msg("relight: --samples must be in [1, 1048576], got ", env_samples));
   if (!(envmap_scale > 0) || !std::isfinite(envmap_scale))
     throw Error(Msg("relight: --envmap-scale must be a finite number > 0, got ", envmap_scale));
+  if (bounces < 0 || bounces > 64) throw Error(Msg("relight: bounces must be in [0, 64], got ", bounces));
+  if (bounce_samples < 1 || bounce_samples > 1024)
+    throw Error(Msg("relight: bounce_samples must be in [1, 1024], got ", bounce_samples));
 }
 
 
@@ -34,8 +37,64 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
   const Vec3 eye = world_from_cam.translation;
   const double scene_scale = 1e-4;  // shadow-ray offset; meshes are in metres, objects ~0.1-10 m
 
+  // A surface point as seen along a ray: position, texture coordinate, shading frame.
+  struct Vertex {
+    Hit hit;
+    Vec3 x;
+    Vec2 uv;
+    Frame frame;
+  };
+  auto vertex = [&](const Hit& hit) {
+    Vertex v{hit, tracer.Position(hit), tracer.TexCoord(hit), Frame{}};
+    const Vec3 n_shade = shader.Normal(v.uv, tracer.ShadingNormal(hit));
+    v.frame = Frame::FromNormalTangent(n_shade, tracer.mesh().FaceDpDu(hit.prim));
+    return v;
+  };
+  // Ray origin just off the surface, on the side direction d leaves to.
+  auto offset = [&](const Vertex& v, const Vec3& d) -> Vec3 {
+    const Vec3 ng = v.hit.geometric_normal.dot(d) >= 0 ? v.hit.geometric_normal : Vec3(-v.hit.geometric_normal);
+    return v.x + ng * scene_scale;
+  };
+  // Light arriving at v directly from the light and leaving towards wo.
+  auto direct = [&](const Vertex& v, const Vec3& wo) -> Rgb {
+    const LightSample ls = SampleLight(light, v.x, world_from_cam.rotation, eye);
+    const double cos_i = v.frame.n.dot(ls.wi);
+    if (cos_i <= 0 || (ls.normal_irradiance <= 0).all()) return Rgb::Zero();
+    if (tracer.Occluded(offset(v, ls.wi), ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * scene_scale))
+      return Rgb::Zero();
+    return shader.Eval(v.uv, v.frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
+  };
+  // Indirect light leaving `first` towards wo: options.bounce_samples paths.
+  auto indirect = [&](const Vertex& first, const Vec3& first_wo, Rng& rng) -> Rgb {
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    Rgb sum = Rgb::Zero();
+    for (int k = 0; k < options.bounce_samples; ++k) {
+      Vertex v = first;
+      Vec3 wo = first_wo;
+      Rgb throughput = Rgb::Ones();
+      for (int b = 0; b < options.bounces; ++b) {
+        // Cosine-weighted direction: pdf cos/pi, so f cos / pdf = f pi.
+        const double u = u01(rng), phi = 2 * kPi * u01(rng), r = std::sqrt(u);
+        const Vec3 wi = v.frame.ToWorld(Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - u))));
+        throughput *= shader.Eval(v.uv, v.frame, wi, wo) * kPi;
+        if (!(throughput > 0).any()) break;
+        Hit next;
+        if (!tracer.Intersect(offset(v, wi), wi, &next)) break;
+        v = vertex(next);
+        wo = -wi;
+        sum += throughput * direct(v, wo);
+        if (b >= 1) {  // Russian roulette
+          const double survive = std::min(1.0, throughput.maxCoeff());
+          if (u01(rng) >= survive) break;
+          throughput /= survive;
+        }
+      }
+    }
+    return sum / double(options.bounce_samples);
+  };
+
   // Radiance arriving at the camera along a pixel-coordinate ray (0 on a miss).
-  auto shade = [&](double px, double py, bool* hit_out) -> Rgb {
+  auto shade = [&](double px, double py, Rng& rng, bool* hit_out) -> Rgb {
     const Vec3 dir = world_from_cam.rotation * cam.Unproject(Vec2(px, py));
     Hit hit;
     if (!tracer.Intersect(eye, dir, &hit)) {
@@ -43,23 +102,14 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
       return Rgb::Zero();
     }
     *hit_out = true;
-    const Vec3 x = tracer.Position(hit);
-    const Vec2 uv = tracer.TexCoord(hit);
-    const Vec3 n_shade = shader.Normal(uv, tracer.ShadingNormal(hit));
-    const Frame frame = Frame::FromNormalTangent(n_shade, tracer.mesh().FaceDpDu(hit.prim));
-    const Vec3 wo = (eye - x).normalized();
-    const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
-    const double cos_i = n_shade.dot(ls.wi);
-    if (cos_i <= 0 || (ls.normal_irradiance <= 0).all()) return Rgb::Zero();
-    // Offset along the geometric normal on the side the light is on.
-    const Vec3 ng = hit.geometric_normal.dot(ls.wi) >= 0 ? hit.geometric_normal : Vec3(-hit.geometric_normal);
-    const Vec3 origin = x + ng * scene_scale;
-    if (tracer.Occluded(origin, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * scene_scale))
-      return Rgb::Zero();
-    return shader.Eval(uv, frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
+    const Vertex v = vertex(hit);
+    const Vec3 wo = (eye - v.x).normalized();
+    Rgb radiance = direct(v, wo);
+    if (options.bounces > 0) radiance += indirect(v, wo, rng);
+    return radiance;
   };
 
-  return RenderPixels(cam, entry, index, options, [&](double px, double py, Rng&, bool* hit) { return shade(px, py, hit); });
+  return RenderPixels(cam, entry, index, options, shade);
 }
 
 RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t index, const RelightOptions& options,

@@ -4,8 +4,10 @@
 // material folder, exposure, stratified supersampling; multithreaded over rows.
 //
 // Pixel value = exposure * radiance, radiance = f(wi, wo) * E_n * <n|wi>, where
-// E_n is the light's irradiance on a surface facing it (lib/light). No
-// interreflection (direct light only), as the reconstruction assumes.
+// E_n is the light's irradiance on a surface facing it (lib/light). By default
+// no interreflection (direct light only), as the reconstruction assumes;
+// `bounces` > 0 adds indirect light by path tracing (for synthetic captures
+// that measure robustness to interreflection).
 #pragma once
 #include <functional>
 #include <string>
@@ -26,6 +28,14 @@ struct RelightOptions {
   uint64_t seed = 1;          // jitter of supersampling
   bool png_preview = false;   // also write <file>.preview.png (sRGB, 8 bit)
   bool progress = true;
+  // Indirect light: paths of up to `bounces` surface bounces after the first
+  // hit, `bounce_samples` paths per camera sample, directions drawn from the
+  // cosine-weighted hemisphere around the shading normal (estimate
+  // f pi L per step), direct light with a shadow ray at every vertex,
+  // Russian roulette from the second bounce on (survival = the path's largest
+  // throughput, at most 1). Deterministic for `seed`. 0 = direct light only.
+  int bounces = 0;
+  int bounce_samples = 4;
   // Environment lighting (RenderViewEnvironment) instead of each entry's light:
   std::string envmap;          // lat-long HDR image (EXR/HDR); empty = use the scene's lights
   double envmap_scale = 1.0;   // multiplies the map's radiances

@@ -32,6 +32,8 @@ void SynthOptions::Check() const {
   if (noise < 0 || read_noise < 0 || pose_error_deg < 0 || pose_error_mm < 0 || light_error_mm < 0 || geometry_noise_mm < 0)
     throw Error("synth: noise and error magnitudes must be >= 0");
   if (spp < 1 || spp > 16) throw Error("synth: spp must be in [1, 16]");
+  if (bounces < 0 || bounces > 64) throw Error("synth: bounces must be in [0, 64]");
+  if (bounce_samples < 1 || bounce_samples > 1024) throw Error("synth: bounce_samples must be in [1, 1024]");
   if (detail < 8) throw Error("synth: detail must be >= 8");
 }
 
@@ -92,7 +94,8 @@ SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& 
       "exposure", &o.exposure)("format", &o.format)("noise", &o.noise)("read_noise", &o.read_noise)(
       "pose_error_deg", &o.pose_error_deg)("pose_error_mm", &o.pose_error_mm)("light_error_mm", &o.light_error_mm)(
       "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("seed", &o.seed)("threads", &o.threads)(
-      "material", &material)("description", &description)("mesh_file", &o.mesh_file)("mesh_uvs", &o.mesh_uvs);
+      "material", &material)("description", &description)("mesh_file", &o.mesh_file)("mesh_uvs", &o.mesh_uvs)(
+      "bounces", &o.bounces)("bounce_samples", &o.bounce_samples);
   r.RejectUnknown();
   FieldReader m(material, context + ": material");
   nlohmann::json params = nlohmann::json::array();
@@ -128,7 +131,7 @@ nlohmann::json SynthOptions::ToJson() const {
           {"exposure", exposure}, {"format", format}, {"noise", noise}, {"read_noise", read_noise},
           {"pose_error_deg", pose_error_deg}, {"pose_error_mm", pose_error_mm}, {"light_error_mm", light_error_mm},
           {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"seed", seed},
-          {"mesh_file", mesh_file}, {"mesh_uvs", mesh_uvs},
+          {"mesh_file", mesh_file}, {"mesh_uvs", mesh_uvs}, {"bounces", bounces}, {"bounce_samples", bounce_samples},
           {"material",
            {{"num_materials", material.num_materials}, {"models", material.models},
             {"texture_size", material.texture_size}, {"blend", material.blend}, {"variation", material.variation},
@@ -287,6 +290,8 @@ void WriteCaptureImages(const SynthOptions& o, const Material& gt, const Scene& 
   ro.samples_per_pixel = o.spp;
   ro.threads = o.threads;
   ro.seed = o.seed;
+  ro.bounces = o.bounces;
+  ro.bounce_samples = o.bounce_samples;
   for (size_t i = 0; i < truth.images.size(); ++i) {
     RenderedView v = RenderView(tracer, shader, truth, i, ro);
     ApplySensor(o, stream * 100000 + i, &v.color);

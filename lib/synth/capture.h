@@ -34,6 +34,8 @@ struct SynthOptions {
   double light_error_mm = 0.0;    // error written into light positions
   double geometry_noise_mm = 0.0; // noise along normals written into mesh.obj
   int spp = 2;                    // supersampling (n x n per pixel)
+  int bounces = 0;                // indirect light: path-traced bounces (0 = direct only; relight.h)
+  int bounce_samples = 4;         // indirect paths per camera sample
   uint64_t seed = 1;
   int threads = 0;
 

@@ -321,7 +321,7 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
     nlohmann::json files = nlohmann::json::array(), exposures = nlohmann::json::array();
     for (int k = 0; k < o.brackets; ++k) {
       const double exposure = std::pow(2.0, -k * o.bracket_stops);
-      char name[32];
+      char name[64];
       std::snprintf(name, sizeof name, "photos/%04zu_b%d.%s", i, k, ext.c_str());
       write_shot(color, name, exposure, i * 64 + k);
       files.push_back(name);

@@ -11,6 +11,7 @@
 
 #include "atlas/atlas.h"
 #include "brdf/fresnel.h"
+#include "core/error.h"
 #include "evaluate/metrics.h"
 #include "pipeline/reconstruction.h"
 #include "relight/relight.h"
@@ -48,9 +49,9 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
   return f0;
 }
 
-// mixed_tiny: held-out PSNR measured 23.0 dB with this commit's clustering
-// (minus 2 dB margin); the issue's goal for the metal's F0 is 5 %.
-constexpr double kMixedTinyMinPsnr = 21.0;
+// mixed_tiny: held-out PSNR measured 26.65 dB with the clustering of main
+// at e6a5456 (minus 2 dB margin); the issue's goal for the metal's F0 is 5 %.
+constexpr double kMixedTinyMinPsnr = 24.5;
 constexpr double kMixedTinyF0Tolerance = 0.05;
 
 std::string Scratch(const std::string& name) {
@@ -157,10 +158,56 @@ TEST(Reconstruct, SingleLobeTruthGetsNoExtraLobes) {
 }
 
 TEST(Reconstruct, MeshWithoutTextureCoordinatesGetsItsOwnAtlas) {
-  SynthOptions o = SynthPreset("tiny");
-  const Outcome r = RunCase("nouv", o, {}, true);
+  // The no-UV regression: the same capture without texture coordinates
+  // (chart atlas at the photos' resolution) close to the one with them.
+  // Measured: 42.4 vs 45.1 dB; the issue's 1 dB is not reached yet, the
+  // assertion holds the 3 dB of the issue's scan-vs-sphere criterion.
+  const Outcome with_uvs = RunCase("uv", SynthPreset("tiny"));
+  const Outcome r = RunCase("nouv", SynthPreset("tiny"), {}, true);
   EXPECT_EQ(r.clusters, 3);
-  EXPECT_GE(r.psnr_mean, 32.0);
+  EXPECT_GE(r.psnr_mean, with_uvs.psnr_mean - 3.0);
+}
+
+// Disabled: not yet verified (the ground-truth chart atlas needs a larger
+// texture than tiny's 64^2; first run threw). Enable after one green run.
+TEST(Reconstruct, DISABLED_ScannedMeshWithoutUvsMatchesItsUvTwin) {
+  // A real scan (Stanford bunny from CGAL's data, 2.7 k triangles): painted
+  // by synth on a chart atlas; reconstructed once with those UVs and once
+  // from the bare mesh.
+  SynthOptions o = SynthPreset("tiny");
+  o.mesh_file = std::string(SVBRDF_SOURCE_DIR) + "/tests/data/bunny_3k.obj";
+  o.material.texture_size = 256;
+  const Outcome with_uvs = RunCase("scan_uv", o, {}, false);
+  const Outcome r = RunCase("scan_nouv", o, {}, true);
+  EXPECT_GE(with_uvs.psnr_mean, 30.0);
+  EXPECT_GE(r.psnr_mean, with_uvs.psnr_mean - 1.0);
+}
+
+TEST(Reconstruct, TimeBudgetGivesACompleteMaterial) {
+  // A budget far below what the reconstruction needs: the result must still
+  // be a complete, valid material folder that relights (not a timed test).
+  const std::string dir = Scratch("budget");
+  Synthesize(SynthPreset("tiny"), dir + "/capture");
+  ReconstructionJob job;
+  job.scene_path = dir + "/capture/scene.json";
+  job.out_dir = dir + "/material";
+  job.gather.progress = false;
+  job.estimate.progress = false;
+  job.time_budget_s = 0.01;
+  const nlohmann::json summary = RunReconstruction(job);
+  ASSERT_TRUE(summary.contains("cut_by_time_budget"));
+  EXPECT_FALSE(summary["cut_by_time_budget"].empty());
+  EXPECT_TRUE(fs::exists(job.out_dir + "/report/summary.json"));
+  const Material m = LoadMaterial(job.out_dir);
+  ASSERT_GE(m.basis.size(), 1u);
+  const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
+  RelightOptions rl;
+  rl.progress = false;
+  RelightScene(m, held, dir + "/relit", rl);
+  EXPECT_GT(CompareToScene(held, dir + "/relit").mean_psnr_srgb, 20.0);
+  job.time_budget_s = -1;
+  EXPECT_THROW(RunReconstruction(job), Error);
+  fs::remove_all(dir);
 }
 
 // Checks the basis material(s) matched to the true metal: recognised as a
@@ -201,9 +248,10 @@ TEST(Reconstruct, MetalIsRecognisedAsConductor) {
 
 // Real materials (issue 8): rough copper, a coated plastic and matte paint
 // with soft borders and a bump map, with the whole default pipeline. The
-// clustering of this commit does not separate them: measured 1 basis
-// material (Lambert), held-out 23.0 dB (with --clusters 3: 28.2 dB, the
-// coated plastic found as coated-ggx, the metal cluster mixed). The active
+// clustering at e6a5456 does not separate them: measured 2 basis materials
+// (lambert, coated-ggx), held-out 26.65 dB, ARI 0.375 (before the cluster
+// merge: 1 material, 23.0 dB; with --clusters 3: 28.2 dB, the coated plastic
+// found as coated-ggx, the metal cluster mixed). The active
 // test guards that floor; the target (right count, metal recognised) is the
 // disabled test below, to be enabled when the clustering meets it.
 TEST(Reconstruct, MixedMaterialsRegression) {
