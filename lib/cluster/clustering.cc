@@ -94,16 +94,16 @@ void Clustering::RemoveBasis(int k) {
 // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
 FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples,
                           int threads) const {
-  return FitIds(spec, Ids(k, false), init, max_samples, threads);
+  return FitIds(spec, Ids(k, false), init, max_samples, threads, k);
 }
 
 FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                             int64_t max_samples, int threads) const {
+                             int64_t max_samples, int threads, int k) const {
   FitOptions fo = o_.fit;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   fo.robust_scale = std::max(0.0, o_.robust_scale);
-  fo.context = Msg("reconstruct: cluster ", k, " (", stage, ")");
+  fo.context = k >= 0 ? Msg("reconstruct: cluster ", k, " (", stage, ")") : Msg("reconstruct: ", stage);
   FitResult ls = FitModel(spec, s_, ids, fo, init);
   if (o_.robust_scale >= 0 || ids.empty()) return ls;
   std::vector<float> r;
