@@ -31,6 +31,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import html_report  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_BIN = os.path.join(ROOT, "build", "apps", "svbrdf")
 RESULTS = os.path.join(ROOT, "bench_results")
@@ -432,13 +435,14 @@ def main():
     json.dump(r, open(base + ".json", "w"), indent=2)
     write_markdown(r, base + ".md")
     write_chart(r, base + ".png")
+    html_report.write_html(base + ".html", f"svbrdf benchmark: {a.preset} capture", [base + ".md"], [base + ".png"])
     ev, sm, gt = r["evaluate"], r["summary"], r["gt"]
     print(f"[bench] reconstruction {sm['total_s']:.1f} s, peak {sm.get('peak_memory_mb', 0):.0f} MB, "
           f"held-out PSNR {ev['psnr_mean_db']:.2f} dB (min {ev['psnr_min_db']:.2f}), rel RMSE {ev['rel_rmse_mean']:.4f}, "
           f"clusters {gt['chosen_clusters']}/{gt['true_clusters']}, ARI {fmt(gt.get('ari'), '.3f')}")
     for t in r["targets"]:
         print(f"[bench]   {'PASS' if t['pass'] else 'FAIL'}  {t['name']}: {t['measured']}")
-    print(f"[bench] wrote {base}.json, {base}.md, {base}.png")
+    print(f"[bench] wrote {base}.json, {base}.md, {base}.png, {base}.html")
 
 
 if __name__ == "__main__":

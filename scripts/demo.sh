@@ -17,6 +17,14 @@ echo "== 3/4 relight the held-out views"
 "$CLI" relight "$OUT/material" "$OUT/capture/heldout/scene.json" --out "$OUT/relit" --preview
 echo "== 4/4 evaluate against the held-out photos"
 "$CLI" evaluate "$OUT/relit" "$OUT/capture/heldout/scene.json" | tee "$OUT/evaluation.txt"
+echo "== export for other tools (Mitsuba 3 scene of the held-out views, glTF 2.0)"
+"$CLI" export "$OUT/material" --format mitsuba --scene "$OUT/capture/heldout/scene.json" --out "$OUT/mitsuba"
+"$CLI" export "$OUT/material" --format gltf --out "$OUT/gltf"
+HDR=/usr/share/blender/datafiles/studiolights/world/studio.exr  # apt-get install blender-data (optional, 101 MB)
+if [ -f "$HDR" ]; then
+  echo "== relight the held-out views in an HDR environment ($HDR)"
+  "$CLI" relight "$OUT/material" "$OUT/capture/heldout/scene.json" --out "$OUT/relit_env" --envmap "$HDR" --samples 16 --preview
+fi
 cat <<MSG
 
 Results:
@@ -26,4 +34,8 @@ Results:
   summary:                               $OUT/material/report/summary.json
   relit held-out views (+ .preview.png): $OUT/relit/images/
   evaluation:                            $OUT/evaluation.txt
+  report page (self-contained):          $OUT/material/report/report.html
+  Mitsuba 3 scene (view_NNNN.xml):       $OUT/mitsuba/
+  glTF 2.0 (model.gltf):                 $OUT/gltf/
+  environment-lit views (if blender-data is installed): $OUT/relit_env/images/
 MSG

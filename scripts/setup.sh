@@ -10,8 +10,10 @@ PACKAGES=(
   cmake ninja-build g++ ccache pkg-config
   libeigen3-dev libceres-dev libembree-dev libopenimageio-dev openimageio-tools
   libopencv-dev libopencv-contrib-dev
+  opencv-doc colmap
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev
   python3 python3-numpy python3-matplotlib python3-opencv python3-openimageio
+  libcgal-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -30,6 +30,7 @@ import traceback
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench  # noqa: E402
+import html_report  # noqa: E402
 
 # fault -> (synth flag, full values, quick values, unit)
 FAULTS = {
@@ -255,6 +256,8 @@ def main():
     json.dump(study, open(os.path.join(a.results, "stability.json"), "w"), indent=2)
     write_stability_md(study, os.path.join(a.results, "stability.md"))
     write_stability_png(study, os.path.join(a.results, "stability.png"))
+    html_report.write_html(os.path.join(a.results, "stability.html"), "svbrdf stability study",
+                           [os.path.join(a.results, "stability.md")], [os.path.join(a.results, "stability.png")])
     print(f"[stability] wrote {a.results}/stability.json, stability.md, stability.png", flush=True)
 
     if a.skip_speed:
@@ -270,6 +273,8 @@ def main():
               open(os.path.join(a.results, "speed_accuracy.json"), "w"), indent=2)
     write_speed(sweep, env, a.quick, os.path.join(a.results, "speed_accuracy.md"),
                 os.path.join(a.results, "speed_accuracy.png"))
+    html_report.write_html(os.path.join(a.results, "speed_accuracy.html"), "svbrdf speed vs accuracy",
+                           [os.path.join(a.results, "speed_accuracy.md")], [os.path.join(a.results, "speed_accuracy.png")])
     print(f"[stability] wrote {a.results}/speed_accuracy.md, speed_accuracy.png (+ .json)", flush=True)
 
 

@@ -1,8 +1,12 @@
 // Texel atlas: coverage, geometry at texel centres, dilation and trivial UVs.
 #include "atlas/atlas.h"
+#include "atlas/charts.h"
 
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <map>
+#include <numeric>
 #include <random>
 #include <set>
 
@@ -174,6 +178,134 @@ TEST(Atlas, TrivialUvsPreserveTriangleShape) {
 
 TEST(Atlas, TrivialUvsRejectTooSmallResolution) {
   EXPECT_THROW(MakeTrivialAtlasUVs(HeightField(12), 40), Error);
+}
+
+// ---- Chart atlas (atlas/charts.h) on a real scan: the Stanford bunny from
+// CGAL's data (Debian libcgal-demo), decimated to 2.7 k triangles by
+// scripts/scan_mesh.py bunny00 --faces 3000.
+
+Mesh BunnyScan() { return LoadMesh(std::string(SVBRDF_SOURCE_DIR) + "/tests/data/bunny_3k.obj"); }
+
+double Area3(const Mesh& m, int f) {
+  const Vec3i& v = m.faces[f];
+  return 0.5 * (m.positions[v[1]] - m.positions[v[0]]).cross(m.positions[v[2]] - m.positions[v[0]]).norm();
+}
+
+// Signed UV area of face f in texels^2 (positive: counter-clockwise in uv).
+double UvArea(const Mesh& m, int f, int side) {
+  const Vec3i& t = m.face_uvs[f];
+  const Vec2 a = m.texcoords[t[0]] * side, b = m.texcoords[t[1]] * side, c = m.texcoords[t[2]] * side;
+  return 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+}
+
+// Chart id per face: connected components of shared texture coordinates.
+std::vector<int> ChartIds(const Mesh& m) {
+  std::vector<int> parent(m.texcoords.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  std::function<int(int)> find = [&](int i) { return parent[i] == i ? i : parent[i] = find(parent[i]); };
+  for (const Vec3i& t : m.face_uvs)
+    for (int k = 1; k < 3; ++k) parent[find(t[k])] = find(t[0]);
+  std::vector<int> id(m.faces.size());
+  for (size_t f = 0; f < m.faces.size(); ++f) id[f] = find(m.face_uvs[f][0]);
+  return id;
+}
+
+struct ChartAtlasCase {
+  Mesh mesh;
+  ChartAtlasInfo info;
+  ChartAtlasOptions options;
+};
+
+ChartAtlasCase MakeBunnyAtlas() {
+  ChartAtlasCase c;
+  const Mesh scan = BunnyScan();
+  double area = 0;
+  for (int f = 0; f < int(scan.faces.size()); ++f) area += Area3(scan, f);
+  c.options.texel_size = std::sqrt(area / (200.0 * 200.0));  // ~40 k texels of surface
+  c.mesh = MakeChartAtlasUVs(scan, c.options, &c.info);
+  return c;
+}
+
+TEST(ChartAtlas, ScanGetsValidUvsAndEveryTriangleIsCovered) {
+  const ChartAtlasCase c = MakeBunnyAtlas();
+  ASSERT_TRUE(c.mesh.HasUVs());
+  EXPECT_NO_THROW(c.mesh.Validate("chart atlas"));
+  EXPECT_GT(c.info.charts, 1);
+  EXPECT_LT(c.info.charts, int(c.mesh.faces.size()) / 4) << "charts should merge many triangles";
+  EXPECT_LE(c.info.resolution, c.options.max_resolution);
+  EXPECT_GT(c.info.fill, 0.3) << "packing wastes most of the texture";
+  const int side = c.info.resolution;
+  const Atlas atlas = BuildAtlas(c.mesh, side, side, 1, true);
+  // Every triangle: inside [0,1]^2, counter-clockwise (3D winding kept),
+  // and the bilinear footprint of its UV centroid reads only covered texels.
+  for (int f = 0; f < int(c.mesh.faces.size()); ++f) {
+    const Vec3i& t = c.mesh.face_uvs[f];
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GE(c.mesh.texcoords[t[k]].minCoeff(), 0.0);
+      EXPECT_LE(c.mesh.texcoords[t[k]].maxCoeff(), 1.0);
+    }
+    if (Area3(c.mesh, f) > 0) EXPECT_GE(UvArea(c.mesh, f, side), -1e-9) << "face " << f << " flipped";
+    const Vec2 uv = (c.mesh.texcoords[t[0]] + c.mesh.texcoords[t[1]] + c.mesh.texcoords[t[2]]) / 3.0;
+    const Vec2 p = UvToTexel(uv, side, side);
+    const int x0 = int(std::floor(p.x() - 0.5)), y0 = int(std::floor(p.y() - 0.5));
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx)
+        ASSERT_GE(atlas.At(x0 + dx, y0 + dy), 0) << "face " << f << " reads an uncovered texel";
+  }
+}
+
+TEST(ChartAtlas, ChartsDoNotOverlapInTexelSpace) {
+  const ChartAtlasCase c = MakeBunnyAtlas();
+  const int side = c.info.resolution;
+  const std::vector<int> chart = ChartIds(c.mesh);
+  // Each chart on its own through BuildAtlas (as gather uses it: small
+  // triangles covered, one ring of dilation): no texel may belong to two.
+  std::map<int, Mesh> parts;
+  for (int f = 0; f < int(c.mesh.faces.size()); ++f) {
+    Mesh& p = parts[chart[f]];
+    if (p.positions.empty()) p.positions = c.mesh.positions, p.texcoords = c.mesh.texcoords;
+    p.faces.push_back(c.mesh.faces[f]);
+    p.face_uvs.push_back(c.mesh.face_uvs[f]);
+  }
+  std::vector<int> owner(size_t(side) * side, -1);
+  long conflicts = 0;
+  for (const auto& [id, part] : parts)
+    for (const Texel& t : BuildAtlas(part, side, side, 1, true).texels) {
+      int& o = owner[size_t(t.y) * side + t.x];
+      if (o >= 0) ++conflicts;
+      o = id;
+    }
+  EXPECT_EQ(conflicts, 0) << "texels claimed by two charts";
+}
+
+TEST(ChartAtlas, TexelDensityIsWithinBand) {
+  const ChartAtlasCase c = MakeBunnyAtlas();
+  const int side = c.info.resolution;
+  // Target: one texel per texel_size^2 of surface. Stated band: the whole
+  // atlas within 1 % of it, and 90 % of the surface within [0.5, 2] x.
+  double surface = 0, texels = 0, inside = 0;
+  for (int f = 0; f < int(c.mesh.faces.size()); ++f) {
+    const double s = Area3(c.mesh, f) / (c.info.texel_size * c.info.texel_size), u = UvArea(c.mesh, f, side);
+    surface += s;
+    texels += u;
+    if (u > 0.5 * s && u < 2.0 * s) inside += s;
+  }
+  EXPECT_NEAR(texels / surface, 1.0, 0.01);
+  EXPECT_GT(inside / surface, 0.9);
+  EXPECT_GE(c.info.texel_size, c.options.texel_size);
+}
+
+TEST(ChartAtlas, TexelSizeGrowsToFitTheCap) {
+  ChartAtlasOptions o;
+  o.texel_size = 1e-4;  // far too fine for 64^2
+  o.max_resolution = 200;
+  ChartAtlasInfo info;
+  const Mesh m = MakeChartAtlasUVs(BunnyScan(), o, &info);
+  EXPECT_LE(info.resolution, 200);
+  EXPECT_GT(info.texel_size, o.texel_size);
+  EXPECT_TRUE(m.HasUVs());
+  o.texel_size = -1;
+  EXPECT_THROW(MakeChartAtlasUVs(BunnyScan(), o, &info), Error);
 }
 
 }  // namespace

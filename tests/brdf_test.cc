@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
+#include <map>
 #include <random>
 #include <set>
 
 #include "brdf/fresnel.h"
+#include "brdf/metals.h"
 #include "brdf/model.h"
 #include "brdf/model_eval.h"
 #include "brdf/optics.h"
@@ -60,13 +63,22 @@ int ParamIndex(const ModelSpec& spec, const std::string& name) {
 // incidence (see oren_nayar.h), so it conserves energy only for rd <= 0.985.
 constexpr double kOrenNayarMaxRd = 0.985;
 
+// Largest deviation of the F82-tint curve from the exact Fresnel of the
+// published metals: measured 0.022 (aluminium, red), where Schlick's curve is
+// off by 0.13.
+constexpr double kF82MaxError = 0.03;
+
 // Rescales random parameters to the edge of where the model conserves energy
 // (max over channels of rd + rs equal to the limit, so the bound is tested
 // tightly) and restricts them to where the quadrature below resolves the lobe
 // (exponent <= 1000, roughness >= 0.05).
+// Conductors have no amplitudes to rescale (F <= 1 by construction); a
+// coated material's base albedo is scaled to a white maximum.
 void MakeEnergyConserving(const ModelSpec& spec, std::vector<double>* p) {
   const std::vector<ParamInfo> params = spec.Params();
-  const bool has_rs = spec.family != Family::kLambert && spec.family != Family::kOrenNayar;
+  if (spec.family == Family::kConductor) return;
+  const bool has_rs =
+      spec.family != Family::kLambert && spec.family != Family::kOrenNayar && spec.family != Family::kCoated;
   double max_sum = 0;
   for (int i = 0; i < static_cast<int>(params.size()); ++i) {
     if (params[i].name == "exponent") (*p)[i] = std::min((*p)[i], 1000.0);
@@ -117,7 +129,10 @@ TEST(ModelSpec, LabelsRoundTripAndAreUnique) {
                         "cook_torrance-beckmann", "cook_torrance-ggx", "cook_torrance-blinn",
                         "cook_torrance-ggx-smith-schlick", "cook_torrance-beckmann-nofresnel"})
     EXPECT_EQ(labels.count(l), 1u) << l;
-  EXPECT_EQ(labels.size(), 5u + 6u + 18u);
+  for (const char* l : {"conductor-ggx", "conductor-beckmann", "conductor-ggx-schlick", "conductor-beckmann-f82",
+                        "coated-ggx", "coated-beckmann"})
+    EXPECT_EQ(labels.count(l), 1u) << l;
+  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u);
 }
 
 TEST(ModelSpec, NamesAreFamilies) {
@@ -154,6 +169,12 @@ TEST(ModelSpec, ParamLayouts) {
   EXPECT_EQ(names("phong"), (V{"rd_r", "rd_g", "rd_b", "rs_r", "rs_g", "rs_b", "exponent"}));
   EXPECT_EQ(names("cook_torrance-ggx-smith"),
             (V{"rd_r", "rd_g", "rd_b", "rs_r", "rs_g", "rs_b", "roughness", "ior"}));
+  EXPECT_EQ(names("conductor-ggx"),
+            (V{"eta_r", "eta_g", "eta_b", "kappa_r", "kappa_g", "kappa_b", "roughness"}));
+  EXPECT_EQ(names("conductor-beckmann-schlick"), (V{"f0_r", "f0_g", "f0_b", "roughness"}));
+  EXPECT_EQ(names("conductor-ggx-f82"),
+            (V{"f0_r", "f0_g", "f0_b", "f82_tint_r", "f82_tint_g", "f82_tint_b", "roughness"}));
+  EXPECT_EQ(names("coated-ggx"), (V{"rd_r", "rd_g", "rd_b", "roughness", "ior"}));
   EXPECT_EQ(names("lafortune-1"),
             (V{"rd_r", "rd_g", "rd_b", "lobe0.rho_r", "lobe0.rho_g", "lobe0.rho_b", "lobe0.cx", "lobe0.cz", "lobe0.n"}));
   const V aniso = names("lafortune-2-aniso");
@@ -179,8 +200,20 @@ TEST(ModelSpec, ParamInfoIsConsistent) {
   }
 }
 
+// Exactly the colour amplitudes are marked linear (FitAmplitudes solves them).
+TEST(ModelSpec, LinearFlagMarksAmplitudes) {
+  for (const ModelSpec& spec : AllModelSpecs())
+    for (const ParamInfo& p : spec.Params()) {
+      const std::string stem = p.name.substr(p.name.find('.') + 1);  // drop "lobeK."
+      const bool amplitude = (stem.rfind("rd_", 0) == 0 && spec.family != Family::kCoated) ||
+                             stem.rfind("rs_", 0) == 0 || stem.rfind("rho_", 0) == 0 || stem.rfind("f0_", 0) == 0;
+      EXPECT_EQ(p.linear, amplitude) << spec.Label() << " " << p.name;
+    }
+}
+
 // A colour parameter must act on its own channel only: catches layout slips
-// between the names and the evaluation order.
+// between the names and the evaluation order. Amplitudes increase the value;
+// other colour parameters (eta, kappa) only change it.
 TEST(ModelSpec, ColourParamsActOnTheirChannel) {
   const Vec3 wi = FromAngles(0.5, 0.3), wo = FromAngles(0.45, 0.3 + kPi);  // near mirror: lobes are lit
   for (const ModelSpec& spec : AllModelSpecs()) {
@@ -196,8 +229,10 @@ TEST(ModelSpec, ColourParamsActOnTheirChannel) {
       p[j] += 0.1;
       const Rgb d = EvalModelD(spec, p.data(), wi, wo) - f0;
       for (int c = 0; c < 3; ++c) {
-        if (c == channel)
+        if (c == channel && params[j].linear)
           EXPECT_GT(d[c], 0) << spec.Label() << " " << n;
+        else if (c == channel)
+          EXPECT_NE(d[c], 0) << spec.Label() << " " << n;
         else
           EXPECT_EQ(d[c], 0) << spec.Label() << " " << n;
       }
@@ -435,6 +470,151 @@ TEST(Fresnel, SchlickCloseToExactNearNormal) {
     EXPECT_NEAR(brdf::FresnelSchlick(0.0, n), 1.0, 1e-14);  // both reach 1 at grazing
     EXPECT_NEAR(brdf::FresnelDielectric(0.0, n), 1.0, 1e-14);
   }
+}
+
+// ---------------------------------------------------------------- conductors
+
+// |r_s|^2, |r_p|^2 with complex arithmetic: the independent reference for the
+// real-arithmetic closed form.
+double ConductorFresnelComplex(double c, double eta, double kappa) {
+  const std::complex<double> n(eta, kappa), n2 = n * n;
+  const std::complex<double> w = std::sqrt(n2 - (1 - c * c));  // n cos(theta_t)
+  const std::complex<double> rs = (c - w) / (c + w), rp = (n2 * c - w) / (n2 * c + w);
+  return 0.5 * (std::norm(rs) + std::norm(rp));
+}
+
+TEST(Conductor, FresnelMatchesComplexAmplitudes) {
+  for (const auto& [eta, kappa] : std::vector<std::pair<double, double>>{
+           {0.14, 3.697}, {1.5724, 7.7354}, {1.38, 1.914}, {0.02, 10.0}, {6.0, 0.0}, {1.5, 0.0}, {3.0, 3.3}}) {
+    for (double c = 0.0; c <= 1.0; c += 0.0049)
+      EXPECT_NEAR(brdf::FresnelConductor(c, eta, kappa), ConductorFresnelComplex(c, eta, kappa), 1e-12)
+          << eta << "+" << kappa << "i, c=" << c;
+    if (kappa == 0) {  // a dielectric
+      for (double c = 0.01; c <= 1.0; c += 0.01)
+        EXPECT_NEAR(brdf::FresnelConductor(c, eta, kappa), brdf::FresnelDielectric(c, eta), 1e-12);
+    }
+  }
+}
+
+// Published optical constants (brdf/metals.h: Johnson & Christy 1972 for gold
+// and copper, Rakic 1995 for aluminium, as tabulated at refractiveindex.info).
+// Normal incidence must give ((n-1)^2 + k^2) / ((n+1)^2 + k^2), whose values
+// (computed by hand from the tables) are listed here; grazing incidence gives 1.
+TEST(Conductor, PublishedMetalsAtNormalAndGrazingIncidence) {
+  const std::map<std::string, Rgb> expected_f0 = {{"gold", Rgb(0.9626, 0.7869, 0.4082)},
+                                                  {"copper", Rgb(0.9433, 0.6195, 0.5392)},
+                                                  {"aluminium", Rgb(0.9054, 0.9147, 0.9226)}};
+  ASSERT_EQ(brdf::PublishedMetals().size(), expected_f0.size());
+  for (const brdf::MetalConstants& m : brdf::PublishedMetals()) {
+    for (int c = 0; c < 3; ++c) {
+      const double n = m.eta[c], k = m.kappa[c];
+      const double f0 = ((n - 1) * (n - 1) + k * k) / ((n + 1) * (n + 1) + k * k);
+      EXPECT_NEAR(brdf::FresnelConductor(1.0, n, k), f0, 1e-14) << m.name << " " << c;
+      EXPECT_NEAR(brdf::ConductorF0(n, k), f0, 1e-14) << m.name;
+      EXPECT_NEAR(f0, expected_f0.at(m.name)[c], 5e-5) << m.name << " " << c;
+      EXPECT_NEAR(brdf::FresnelConductor(0.0, n, k), 1.0, 1e-14) << m.name;
+      EXPECT_GT(brdf::FresnelConductor(1e-4, n, k), 0.999) << m.name;
+      EXPECT_NEAR(brdf::FresnelConductor(1.0, n, k), ConductorFresnelComplex(1.0, n, k), 1e-14);
+    }
+  }
+  // Colours: gold and copper reflect red best and blue least; aluminium is
+  // almost neutral and above 0.9 everywhere.
+  const brdf::MetalConstants& gold = *brdf::FindMetal("gold");
+  EXPECT_GT(brdf::ConductorF0(gold.eta[0], gold.kappa[0]), brdf::ConductorF0(gold.eta[1], gold.kappa[1]));
+  EXPECT_GT(brdf::ConductorF0(gold.eta[1], gold.kappa[1]), brdf::ConductorF0(gold.eta[2], gold.kappa[2]));
+  EXPECT_EQ(brdf::FindMetal("silver"), nullptr);
+}
+
+TEST(Conductor, KappaFromF0InvertsF0) {
+  for (double eta : {0.05, 0.3, 1.0, 2.0})
+    for (double f0 : {0.3, 0.6, 0.9, 0.99}) {
+      const double kappa = brdf::ConductorKappaFromF0(f0, eta);
+      if (f0 < std::pow((eta - 1) / (eta + 1), 2)) continue;
+      EXPECT_NEAR(brdf::ConductorF0(eta, kappa), f0, 1e-12) << eta << " " << f0;
+    }
+  EXPECT_EQ(brdf::ConductorKappaFromF0(0.01, 2.0), 0.0);  // below the dielectric value: kappa 0
+}
+
+// F82-tint form: Schlick at tint 1, the prescribed dip at 82 deg, f0 and 1 at
+// the ends, and with the tint of a real metal close to its exact curve.
+TEST(Conductor, F82TintForm) {
+  const double mu = 1.0 / 7.0;
+  for (double f0 : {0.0, 0.4, 0.9, 1.0})
+    for (double tint : {0.0, 0.5, 0.9, 1.0}) {
+      EXPECT_NEAR(brdf::FresnelF82Tint(1.0, f0, tint), f0, 1e-14);
+      EXPECT_NEAR(brdf::FresnelF82Tint(0.0, f0, tint), 1.0, 1e-14);
+      EXPECT_NEAR(brdf::FresnelF82Tint(mu, f0, tint), std::max(tint * brdf::FresnelSchlickF0(mu, f0), 0.0), 1e-12);
+      for (double c = 0; c <= 1; c += 0.01) {
+        const double f = brdf::FresnelF82Tint(c, f0, tint);
+        EXPECT_GE(f, 0.0);
+        EXPECT_LE(f, 1.0 + 1e-15);
+        if (tint == 1.0) {
+          EXPECT_NEAR(f, brdf::FresnelSchlickF0(c, f0), 1e-14);
+        }
+      }
+    }
+  for (const brdf::MetalConstants& m : brdf::PublishedMetals())
+    for (int ch = 0; ch < 3; ++ch) {
+      const double f0 = brdf::ConductorF0(m.eta[ch], m.kappa[ch]);
+      const double tint = brdf::ConductorF82Tint(m.eta[ch], m.kappa[ch]);
+      EXPECT_GT(tint, 0.8) << m.name;
+      EXPECT_LE(tint, 1.0) << m.name;
+      double worst_f82 = 0, worst_schlick = 0;
+      for (double c = 0; c <= 1; c += 0.005) {
+        const double exact = brdf::FresnelConductor(c, m.eta[ch], m.kappa[ch]);
+        worst_f82 = std::max(worst_f82, std::abs(brdf::FresnelF82Tint(c, f0, tint) - exact));
+        worst_schlick = std::max(worst_schlick, std::abs(brdf::FresnelSchlickF0(c, f0) - exact));
+      }
+      EXPECT_LT(worst_f82, kF82MaxError) << m.name << " " << ch;
+      EXPECT_LE(worst_f82, worst_schlick + 1e-12) << m.name << " " << ch;
+    }
+}
+
+// ---------------------------------------------------------- coated dielectric
+
+TEST(Coated, DiffuseFresnelReflectanceClosedForm) {
+  for (double n : {1.1, 1.33, 1.5, 2.0, 2.5}) {
+    const int steps = 200000;
+    double ext = 0, in = 0;
+    for (int i = 0; i < steps; ++i) {
+      const double mu = (i + 0.5) / steps;
+      ext += 2 * mu * brdf::FresnelDielectric(mu, n) / steps;
+      in += 2 * mu * brdf::FresnelDielectric(mu, 1 / n) / steps;  // from inside, with total internal reflection
+    }
+    EXPECT_NEAR(brdf::DielectricDiffuseReflectance(n), ext, 1e-9) << n;
+    EXPECT_NEAR(brdf::DielectricInternalDiffuseReflectance(n), in, 1e-5) << n;  // kink at the critical angle
+  }
+}
+
+// A white base under a smooth coat reflects (almost) everything: the coat
+// F(theta) and, through it, the base 1 - F(theta). What is missing is the
+// Smith shadowing of the coat's lobe.
+TEST(Coated, WhiteBaseUnderSmoothCoatReflectsAll) {
+  for (const char* label : {"coated-ggx", "coated-beckmann"}) {
+    const ModelSpec spec = ModelSpec::FromLabel(label);
+    for (double theta : {0.0, 0.6, 1.1}) {
+      const double albedo = Albedo(spec, {1, 1, 1, 0.05, 1.5}, FromAngles(theta, 0.3))[0];
+      EXPECT_LE(albedo, 1 + 2e-3) << label << " " << theta;
+      EXPECT_GE(albedo, 0.985) << label << " " << theta;
+    }
+    // A black base leaves the coat's reflection only: about F0 = 0.04 at normal incidence.
+    EXPECT_NEAR(Albedo(spec, {0, 0, 0, 0.05, 1.5}, Vec3(0, 0, 1))[0], 0.04, 1e-3) << label;
+  }
+}
+
+// A white-furnace conductor (f0 = 1) reflects all light at normal incidence
+// up to shadowing; gold reflects its F0 per channel.
+TEST(Conductor, AlbedoIsF0AtNormalIncidence) {
+  for (const char* label : {"conductor-ggx-schlick", "conductor-beckmann-schlick"}) {
+    const double a = Albedo(ModelSpec::FromLabel(label), {1, 1, 1, 0.05}, Vec3(0, 0, 1))[0];
+    EXPECT_LE(a, 1 + 1e-3) << label;
+    EXPECT_GE(a, 0.99) << label;
+  }
+  const brdf::MetalConstants& gold = *brdf::FindMetal("gold");
+  const std::vector<double> p = {gold.eta[0],   gold.eta[1],   gold.eta[2], gold.kappa[0],
+                                 gold.kappa[1], gold.kappa[2], 0.05};
+  const Rgb a = Albedo(ModelSpec::FromLabel("conductor-ggx"), p, Vec3(0, 0, 1));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], brdf::ConductorF0(gold.eta[c], gold.kappa[c]), 0.01) << c;
 }
 
 // ------------------------------------------------------------------ autodiff

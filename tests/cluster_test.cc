@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
 
+#include "cluster/clustering.h"
 #include "cluster/nnls.h"
 #include "cluster/reconstruct.h"
 #include "core/error.h"
@@ -168,6 +170,33 @@ TEST(Cluster, SparseTexelsGetNeighbourWeightsAndLowConfidence) {
   EXPECT_GT(est.confidence[10], 0.9f);
   const int K = int(est.basis.size());
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(est.weights[(20 * K) * 3 + c], est.weights[(19 * K) * 3 + c], 0.05);
+}
+
+TEST(Cluster, PartitionKeyIgnoresClusterNumbering) {
+  EXPECT_EQ(PartitionKey({0, 0, 1, 2, 1}), PartitionKey({2, 2, 0, 1, 0}));
+  EXPECT_NE(PartitionKey({0, 0, 1, 1, 1}), PartitionKey({0, 1, 1, 1, 1}));
+  EXPECT_NE(PartitionKey({0, 0, 0}), PartitionKey({0, 0, 1}));
+}
+
+// Two colours, but no split is ever good enough (min_z out of reach): the
+// search backtracks and tries the next feature set, and the colour-only
+// features give the same halves as all features. That state must not be
+// evaluated a second time (the 4 <-> 5 oscillation seen on real captures).
+TEST(Cluster, NoStateIsEvaluatedTwice) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Lambert(0.1, 0.3, 0.6)};
+  std::vector<int> label(160);
+  for (size_t t = 0; t < label.size(); ++t) label[t] = t < 80 ? 0 : 1;
+  const SampleSet s = MakeSamples(truth, label, 21);
+  ReconstructOptions o = Quiet();
+  o.candidate_models = {"lambert"};
+  o.cluster_model = "lambert";
+  o.min_z = 1e9;
+  o.max_clusters = 4;
+  const SvbrdfEstimate est = EstimateSvbrdf(s, LineAtlas(160), o);
+  std::set<uint64_t> seen;
+  for (const ClusterStep& h : est.history) EXPECT_TRUE(seen.insert(h.partition).second) << h.clusters << " clusters";
+  EXPECT_GE(est.states_revisited, 1);  // a revisit was attempted and skipped
+  EXPECT_EQ(est.basis.size(), 1u);
 }
 
 TEST(Cluster, RejectsBadOptions) {

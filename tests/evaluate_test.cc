@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "evaluate/html.h"
 #include "evaluate/metrics.h"
 
 namespace svbrdf {
@@ -40,6 +41,28 @@ TEST(Evaluate, FalseColourMapsAreInRange) {
   EXPECT_NE(l.at(1, 0, 0), l.at(2, 0, 0));
   const Image r = ColorRamp(labels, -1, 2);
   for (float v : r.pixels) EXPECT_TRUE(v >= 0 && v <= 1);
+}
+
+TEST(Html, Base64MatchesRfc4648Vectors) {
+  EXPECT_EQ(Base64(""), "");
+  EXPECT_EQ(Base64("f"), "Zg==");
+  EXPECT_EQ(Base64("fo"), "Zm8=");
+  EXPECT_EQ(Base64("foo"), "Zm9v");
+  EXPECT_EQ(Base64("foobar"), "Zm9vYmFy");
+  EXPECT_EQ(Base64(std::string("\xff\x00\x10", 3)), "/wAQ");
+}
+
+TEST(Html, PageEscapesTextAndEmbedsPictures) {
+  HtmlPage page("a <b> & c");
+  page.Table({"x"}, {{"1 < 2"}});
+  const std::string png = ::testing::TempDir() + "/html_test.png";
+  WriteImage(png, Image(2, 2, 3, 0.5f), PixelFormat::kUInt8, ColorSpace::kSRGB);
+  page.Figures({{png, "grey"}});
+  const std::string html = page.ToString();
+  EXPECT_NE(html.find("a &lt;b&gt; &amp; c"), std::string::npos);
+  EXPECT_NE(html.find("1 &lt; 2"), std::string::npos);
+  EXPECT_NE(html.find("src=\"data:image/png;base64,iVBORw0KGgo"), std::string::npos);  // PNG signature
+  EXPECT_EQ(html.find(png), std::string::npos);  // no reference to an outside file
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "brdf/fresnel.h"
 #include "core/error.h"
 #include "fit/batch_cost.h"
 #include "fit/synthetic.h"
@@ -47,6 +48,15 @@ std::vector<Case> RecoveryCases() {
       // rd, rs, roughness, ior
       {"cook_torrance-beckmann", {0.4, 0.3, 0.2, 0.5, 0.4, 0.3, 0.2, 1.6}, {0, 1, 2, 3, 4, 5, 6, 7}},
       {"cook_torrance-ggx", {0.4, 0.3, 0.2, 0.5, 0.4, 0.3, 0.25, 1.5}, {0, 1, 2, 3, 4, 5, 6, 7}},
+      // f0, roughness: copper-coloured, rough and polished
+      {"conductor-ggx-schlick", {0.94, 0.62, 0.54, 0.2}, {0, 1, 2, 3}},
+      {"conductor-beckmann-schlick", {0.91, 0.91, 0.92, 0.06}, {0, 1, 2, 3}},
+      // eta, kappa (gold, Johnson & Christy), roughness: eta and kappa trade
+      // off against each other along curves of equal F0, so only the
+      // roughness is checked directly (F0 in ExactConductorRecoversF0).
+      {"conductor-ggx", {0.14, 0.43, 1.38, 3.697, 2.455, 1.914, 0.15}, {6}},
+      // rd, roughness, ior
+      {"coated-ggx", {0.5, 0.3, 0.15, 0.15, 1.5}, {0, 1, 2, 3, 4}},
   };
 }
 
@@ -87,6 +97,23 @@ INSTANTIATE_TEST_SUITE_P(Models, Recovery, ::testing::ValuesIn(RecoveryCases()),
                              if (ch == '-') ch = '_';
                            return name;
                          });
+
+// The exact conductor starts from the f0 of its Schlick twin; with 1 % noise
+// its normal-incidence reflectance must come out within 1 % per channel.
+TEST(Fit, ExactConductorRecoversF0) {
+  const ModelSpec spec = ModelSpec::FromLabel("conductor-ggx");
+  const std::vector<double> truth = {0.22, 1.02, 1.24, 3.747, 2.577, 2.397, 0.2};  // copper
+  const SampleSet set = SynthesizeSamples(spec, truth, Synth(20000, 0.01));
+  FitOptions options;
+  options.threads = 1;
+  const FitResult r = FitModel(spec, set, {}, options);
+  for (int c = 0; c < 3; ++c) {
+    const double f0 = brdf::ConductorF0(r.params[c], r.params[3 + c]);
+    const double f0_true = brdf::ConductorF0(truth[c], truth[3 + c]);
+    EXPECT_NEAR(f0, f0_true, 0.01 * f0_true) << "channel " << c;
+  }
+  EXPECT_NEAR(r.params[6], 0.2, 0.01);
+}
 
 double MaxRelativeError(const std::vector<double>& a, const std::vector<double>& truth) {
   double worst = 0;

@@ -490,6 +490,32 @@ Material MakeMaterial() {
   return m;
 }
 
+// Every model's parameters by name (conductors' eta/kappa/f0/f82_tint,
+// coated) survive material.json exactly.
+TEST(Material, EveryModelRoundTrips) {
+  TempDir dir;
+  Material a = MakeMaterial();
+  a.basis.clear();
+  a.weights.clear();
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    BasisMaterial b;
+    b.name = spec.Label();
+    b.spec = spec;
+    b.params = spec.InitialParams();
+    for (size_t i = 0; i < b.params.size(); ++i) b.params[i] += 1e-3 * (i + 1);  // distinct, exact in JSON
+    a.basis.push_back(b);
+    a.weights.push_back(Ramp(6, 4, 3));
+  }
+  a.material_id = Image(6, 4, 1, 0.0f);
+  SaveMaterial(a, dir / "all");
+  const Material b = LoadMaterial(dir / "all");
+  ASSERT_EQ(b.basis.size(), a.basis.size());
+  for (size_t i = 0; i < a.basis.size(); ++i) {
+    EXPECT_EQ(b.basis[i].spec.Label(), a.basis[i].spec.Label());
+    EXPECT_EQ(b.basis[i].params, a.basis[i].params) << a.basis[i].spec.Label();
+  }
+}
+
 TEST(Material, RoundTrip) {
   TempDir dir;
   const Material a = MakeMaterial();

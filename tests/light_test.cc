@@ -8,6 +8,8 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "core/rng.h"
+#include "light/envmap.h"
 
 namespace svbrdf {
 namespace {
@@ -157,6 +159,93 @@ TEST(Ies, BrokenFilesAreClearErrors) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/lamp.ies"), std::string::npos);
+  }
+}
+
+// A small environment with smooth variation and one bright texel.
+EnvironmentMap TestEnvironment() {
+  const int w = 16, h = 8;
+  std::vector<float> rgb(size_t(w) * h * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) rgb[(size_t(y) * w + x) * 3 + c] = float(0.2 + 0.1 * c + 0.5 * std::sin(0.7 * x + y) * std::sin(0.7 * x + y));
+  for (int c = 0; c < 3; ++c) rgb[(size_t(2) * w + 5) * 3 + c] = 40.0f;
+  return EnvironmentMap(w, h, rgb, "test");
+}
+
+TEST(EnvironmentMap, UvAndDirectionsRoundTrip) {
+  for (double u : {0.05, 0.3, 0.77})
+    for (double v : {0.1, 0.5, 0.93}) {
+      const Vec2 uv = EnvironmentMap::DirectionToUv(EnvironmentMap::UvToDirection(Vec2(u, v)));
+      EXPECT_NEAR(uv.x(), u, 1e-12);
+      EXPECT_NEAR(uv.y(), v, 1e-12);
+    }
+  // +y is up (v = 0), Mitsuba's convention.
+  EXPECT_NEAR(EnvironmentMap::DirectionToUv(Vec3::UnitY()).y(), 0.0, 1e-12);
+}
+
+TEST(EnvironmentMap, SampledPdfMatchesPdfAndIntegratesToOne) {
+  const EnvironmentMap env = TestEnvironment();
+  Rng rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 1000; ++i) {
+    double pdf = 0;
+    const Vec3 d = env.Sample(u(rng), u(rng), &pdf);
+    EXPECT_NEAR(d.norm(), 1.0, 1e-12);
+    EXPECT_NEAR(pdf, env.Pdf(d), 1e-9 * pdf);
+  }
+  double integral = 0;
+  const int n = 800;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < 2 * n; ++j) {
+      const double th = kPi * (i + 0.5) / n, ph = kPi * (j + 0.5) / n;
+      integral += env.Pdf(Vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph))) * std::sin(th) *
+                  (kPi / n) * (kPi / n);
+    }
+  EXPECT_NEAR(integral, 1.0, 2e-3);
+}
+
+TEST(EnvironmentMap, SampleHistogramPassesChiSquare) {
+  const EnvironmentMap env = TestEnvironment();
+  const int m = 200000;
+  std::vector<double> count(size_t(env.width()) * env.height(), 0.0);
+  Rng rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < m; ++i) {
+    double pdf;
+    const Vec2 uv = EnvironmentMap::DirectionToUv(env.Sample(u(rng), u(rng), &pdf));
+    const int x = std::min(int(uv.x() * env.width()), env.width() - 1), y = std::min(int(uv.y() * env.height()), env.height() - 1);
+    count[size_t(y) * env.width() + x] += 1;
+  }
+  double chi2 = 0;
+  int bins = 0;
+  for (int y = 0; y < env.height(); ++y)
+    for (int x = 0; x < env.width(); ++x) {
+      const double expected = env.TexelProbability(x, y) * m;
+      if (expected < 5) continue;
+      chi2 += (count[size_t(y) * env.width() + x] - expected) * (count[size_t(y) * env.width() + x] - expected) / expected;
+      ++bins;
+    }
+  // 127 degrees of freedom: the 0.1 % critical value is ~181.
+  EXPECT_GT(bins, 100);
+  EXPECT_LT(chi2, 181.0) << bins << " bins";
+}
+
+TEST(EnvironmentMap, BadMapsAreClearErrors) {
+  std::vector<float> rgb(4 * 2 * 3, 1.0f);
+  rgb[5] = std::nanf("");
+  EXPECT_THROW(EnvironmentMap(4, 2, rgb, "x.exr"), Error);
+  EXPECT_THROW(EnvironmentMap(4, 2, std::vector<float>(24, 0.0f), "x.exr"), Error);
+  EXPECT_THROW(EnvironmentMap(4, 2, std::vector<float>(23, 1.0f), "x.exr"), Error);
+  std::vector<float> ringing(24, 1.0f);
+  ringing[3] = -1e-3f;
+  const EnvironmentMap env(4, 2, ringing, "x.exr");
+  EXPECT_EQ(env.clamped_negative(), 1);
+  EXPECT_EQ(env.Radiance(EnvironmentMap::UvToDirection(Vec2(0.375, 0.25)))[0], 0.0);
+  try {
+    EnvironmentMap(4, 2, rgb, "sky.exr");
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sky.exr"), std::string::npos);
   }
 }
 

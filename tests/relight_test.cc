@@ -218,5 +218,98 @@ TEST(Relight, RejectsBadOptions) {
   EXPECT_THROW(o.Check(), Error);
 }
 
+EnvironmentMap ConstantEnvironment(double radiance) {
+  return EnvironmentMap(8, 4, std::vector<float>(8 * 4 * 3, float(radiance)), "constant");
+}
+
+// Relative RMS over the object's pixels (mask) of a against b.
+double RelRms(const RenderedView& a, const RenderedView& b) {
+  double num = 0, den = 0;
+  for (size_t p = 0; p < a.mask.pixels.size(); ++p) {
+    if (a.mask.pixels[p] == 0) continue;
+    for (int c = 0; c < 3; ++c) {
+      const double x = a.color.pixels[3 * p + c], y = b.color.pixels[3 * p + c];
+      num += (x - y) * (x - y);
+      den += y * y;
+    }
+  }
+  return std::sqrt(num / den);
+}
+
+TEST(RelightEnvironment, WhiteFurnaceLambertianSphereGivesAlbedoTimesRadiance) {
+  // Constant environment L on a convex Lambertian sphere (no self-shadowing):
+  // radiance = albedo * L at every visible point.
+  const double albedo = 0.7, L = 2.0;
+  const Mesh mesh = Sphere(kRadius, Vec3::Zero(), 60);
+  const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", albedo}, {"rd_g", albedo}, {"rd_b", albedo}});
+  const Scene s = OneView(Vec3(0, 0.3, 2.0), PointLight(Vec3(1, 1, 1), 1), 40, 30, 40);
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  RelightOptions o;
+  o.progress = false;
+  o.env_samples = 256;
+  const RenderedView v = RenderViewEnvironment(tracer, shader, s, 0, ConstantEnvironment(L), o);
+  double sum = 0, worst = 0, sq = 0;
+  long n = 0;
+  for (size_t p = 0; p < v.mask.pixels.size(); ++p) {
+    if (v.mask.pixels[p] == 0) continue;
+    const double r = v.color.pixels[3 * p] / (albedo * L);
+    sum += r;
+    sq += (r - 1) * (r - 1);
+    worst = std::max(worst, std::abs(r - 1));
+    ++n;
+  }
+  std::printf("furnace: %ld pixels, mean ratio %.5f, rms %.4f, worst %.4f\n", n, sum / n, std::sqrt(sq / n), worst);
+  ASSERT_GT(n, 100);
+  EXPECT_NEAR(sum / n, 1.0, 0.005);   // mean over pixels: no bias beyond 0.5 %
+  EXPECT_LT(std::sqrt(sq / n), 0.035);  // per-pixel noise at 256 + 256 samples (measured 2.2 %)
+  EXPECT_LT(worst, 0.12);             // no outlier beyond ~5 sigma
+}
+
+TEST(RelightEnvironment, ErrorFallsAsOneOverSqrtSamplesAndIsDeterministic) {
+  const Mesh mesh = Sphere(kRadius, Vec3::Zero(), 40);
+  const Material mat = UniformMaterial(mesh, "cook_torrance-ggx", {{"roughness", 0.3}});
+  const Scene s = OneView(Vec3(0, 0.3, 2.0), PointLight(Vec3(1, 1, 1), 1), 24, 18, 24);
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  // A sky with a bright sun patch.
+  std::vector<float> rgb(32 * 16 * 3, 0.5f);
+  for (int c = 0; c < 3; ++c) rgb[(3 * 32 + 20) * 3 + c] = 200.0f;
+  const EnvironmentMap env(32, 16, rgb, "sky");
+  RelightOptions o;
+  o.progress = false;
+  o.env_samples = 2048;
+  const RenderedView ref = RenderViewEnvironment(tracer, shader, s, 0, env, o);
+  std::vector<double> err;
+  for (int n : {4, 16, 64}) {
+    double e = 0;
+    for (uint64_t seed : {11, 12, 13, 14}) {  // average over seeds: a smoother estimate of the RMS error
+      o.env_samples = n;
+      o.seed = seed;
+      e += RelRms(RenderViewEnvironment(tracer, shader, s, 0, env, o), ref) / 4;
+    }
+    err.push_back(e);
+  }
+  std::printf("environment: relative RMS error %.4f, %.4f, %.4f at 4, 16, 64 samples\n", err[0], err[1], err[2]);
+  // 1/sqrt(N): a factor 2 per 4x samples (the reference's own error is ~ 1/sqrt(32) of the N = 64 one).
+  EXPECT_NEAR(err[0] / err[1], 2.0, 0.6);
+  EXPECT_NEAR(err[1] / err[2], 2.0, 0.6);
+  o.env_samples = 4;
+  o.seed = 5;
+  o.threads = 1;
+  const RenderedView a = RenderViewEnvironment(tracer, shader, s, 0, env, o);
+  o.threads = 2;
+  EXPECT_EQ(a.color.pixels, RenderViewEnvironment(tracer, shader, s, 0, env, o).color.pixels);
+}
+
+TEST(RelightEnvironment, RejectsBadOptions) {
+  RelightOptions o;
+  o.env_samples = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = RelightOptions();
+  o.envmap_scale = -1;
+  EXPECT_THROW(o.Check(), Error);
+}
+
 }  // namespace
 }  // namespace svbrdf

@@ -2,15 +2,19 @@
 // identically, determinism with a seed, procedural shapes with atlases.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "atlas/atlas.h"
+#include "brdf/fresnel.h"
+#include "brdf/metals.h"
 #include "core/error.h"
 #include "io/material.h"
 #include "io/scene.h"
 #include "synth/capture.h"
+#include "synth/ground_truth.h"
 #include "synth/shapes.h"
 
 namespace svbrdf {
@@ -161,6 +165,71 @@ TEST(Synth, RejectsBadOptions) {
   EXPECT_THROW(o.Check(), Error);
   EXPECT_THROW(SynthPreset("nope"), Error);
   EXPECT_THROW(SynthOptions::FromJson(nlohmann::json{{"num_imagez", 3}}, "x.json"), Error);
+}
+
+TEST(Synth, EveryPresetParses) {
+  const std::vector<std::string> names = SynthPresetNames();
+  for (const char* wanted : {"default", "tiny", "standard", "mixed", "mixed_tiny", "metals_rough", "metals_polished",
+                             "coated_plastic"})
+    EXPECT_NE(std::find(names.begin(), names.end(), wanted), names.end()) << wanted;
+  for (const std::string& name : names) EXPECT_NO_THROW(SynthPreset(name)) << name;
+  const SynthOptions mixed = SynthPreset("mixed");
+  EXPECT_EQ(mixed.num_images, 40);
+  EXPECT_EQ(mixed.width, 800);
+  EXPECT_EQ(mixed.noise, 0.01);
+  ASSERT_EQ(mixed.material.params.size(), 3u);
+  EXPECT_EQ(mixed.material.params[0].metal, "copper");
+  EXPECT_GT(mixed.material.bump, 0);
+}
+
+// Per-material parameters: published metals become eta/kappa (exact Fresnel)
+// or the matching f0 and F82 tint; plain values override; the options
+// survive the JSON round trip that scene.json records.
+TEST(Synth, MaterialParamsSetMetalsAndValues) {
+  GroundTruthOptions g;
+  g.num_materials = 3;
+  g.texture_size = 16;
+  g.models = {"conductor-ggx", "conductor-beckmann-f82", "coated-ggx"};
+  g.params = {{"gold", {{"roughness", 0.05}}}, {"aluminium", {}}, {"", {{"rd_r", 0.7}, {"ior", 1.4}}}};
+  const Material m = MakeGroundTruth(MakeShape("sphere", 16), g);
+  const brdf::MetalConstants& gold = *brdf::FindMetal("gold");
+  const brdf::MetalConstants& al = *brdf::FindMetal("aluminium");
+  EXPECT_EQ(GetParam(m.basis[0], "eta_r"), gold.eta[0]);
+  EXPECT_EQ(GetParam(m.basis[0], "kappa_b"), gold.kappa[2]);
+  EXPECT_EQ(GetParam(m.basis[0], "roughness"), 0.05);
+  EXPECT_DOUBLE_EQ(GetParam(m.basis[1], "f0_g"), brdf::ConductorF0(al.eta[1], al.kappa[1]));
+  EXPECT_DOUBLE_EQ(GetParam(m.basis[1], "f82_tint_r"), brdf::ConductorF82Tint(al.eta[0], al.kappa[0]));
+  EXPECT_EQ(GetParam(m.basis[2], "rd_r"), 0.7);
+  EXPECT_EQ(GetParam(m.basis[2], "ior"), 1.4);
+
+  SynthOptions o = Small();
+  o.material = g;
+  const SynthOptions back = SynthOptions::FromJson(o.ToJson(), "round trip");
+  ASSERT_EQ(back.material.params.size(), 3u);
+  EXPECT_EQ(back.material.params[0].metal, "gold");
+  EXPECT_EQ(back.material.params[0].values, g.params[0].values);
+  EXPECT_EQ(back.material.params[2].values, g.params[2].values);
+}
+
+TEST(Synth, RejectsBadMaterialParams) {
+  auto make = [](const std::string& model, const MaterialParams& p) {
+    GroundTruthOptions g;
+    g.num_materials = 1;
+    g.texture_size = 16;
+    g.models = {model};
+    g.params = {p};
+    return MakeGroundTruth(MakeShape("sphere", 16), g);
+  };
+  EXPECT_THROW(make("conductor-ggx", {"silver", {}}), Error);                 // unknown metal
+  EXPECT_THROW(make("lambert", {"gold", {}}), Error);                         // not a conductor
+  EXPECT_THROW(make("conductor-ggx", {"", {{"roughness", 2.0}}}), Error);     // out of range
+  EXPECT_THROW(make("coated-ggx", {"", {{"f0_r", 0.5}}}), Error);             // no such parameter
+  GroundTruthOptions g;
+  g.num_materials = 2;
+  g.params = {{}};
+  EXPECT_THROW(g.Check(), Error);  // one entry per material
+  const nlohmann::json bad = {{"material", {{"num_materials", 1}, {"params", {{{"metal", 3}}}}}}};
+  EXPECT_THROW(SynthOptions::FromJson(bad, "x.json"), Error);
 }
 
 }  // namespace

@@ -26,6 +26,12 @@ void RegisterRelight(CLI::App& app, Runner* run) {
   c->add_option("--threads", a->options.threads, "worker threads (0 = all cores)");
   c->add_option("--seed", a->options.seed, "seed of the supersampling jitter");
   c->add_flag("--preview", a->options.png_preview, "also write sRGB PNG previews");
+  c->add_option("--envmap", a->options.envmap,
+                "light by a lat-long HDR environment (EXR/HDR, +y up, Mitsuba's envmap convention) instead of the\n"
+                "scene's lights; importance sampled with shadows. Example:\n"
+                "  svbrdf relight material capture/heldout/scene.json --out relit_env --envmap studio.exr --samples 256");
+  c->add_option("--samples", a->options.env_samples, "--envmap: environment (+ as many cosine) samples per pixel sample");
+  c->add_option("--envmap-scale", a->options.envmap_scale, "--envmap: multiplies the environment's radiance");
   c->callback([a, run] {
     *run = [a] {
       const auto t0 = std::chrono::steady_clock::now();

@@ -15,6 +15,8 @@ void RegisterSynth(CLI::App& app, Runner* run) {
     int images = -1, materials = -1, width = -1, height = -1, threads = 0, spp = -1;
     double noise = -1, pose_deg = -1, pose_mm = -1, light_mm = -1, geom_mm = -1, exposure = -1;
     long seed = -1;
+    std::string mesh_file;
+    bool no_mesh_uvs = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* c = app.add_subcommand("synth",
@@ -25,6 +27,8 @@ void RegisterSynth(CLI::App& app, Runner* run) {
   c->add_option("--config", a->config, "JSON file with synth options (overrides --preset)");
   c->add_option("--out", a->out, "output folder")->required();
   c->add_option("--object", a->object, "sphere | torus | blob | cube");
+  c->add_option("--mesh", a->mesh_file, "mesh file (OBJ/PLY, e.g. a scan) instead of --object; scaled to 0.5 m radius");
+  c->add_flag("--no-mesh-uvs", a->no_mesh_uvs, "write the capture's mesh.obj without texture coordinates (as a scan)");
   c->add_option("--images", a->images, "number of photos");
   c->add_option("--materials", a->materials, "number of basis materials");
   c->add_option("--width", a->width, "image width");
@@ -45,8 +49,10 @@ void RegisterSynth(CLI::App& app, Runner* run) {
       SynthOptions o = a->config.empty() ? SynthPreset(a->preset)
                                          : SynthOptions::FromJson(ReadJsonFile(a->config), a->config);
       if (!a->object.empty()) o.object = a->object;
+      if (!a->mesh_file.empty()) o.mesh_file = a->mesh_file;
+      if (a->no_mesh_uvs) o.mesh_uvs = false;
       if (a->images > 0) o.num_images = a->images;
-      if (a->materials > 0) o.material.num_materials = a->materials, o.material.models.clear();
+      if (a->materials > 0) o.material.num_materials = a->materials, o.material.models.clear(), o.material.params.clear();
       if (a->width > 0) o.width = a->width;
       if (a->height > 0) o.height = a->height;
       if (!a->lights.empty()) o.lights = a->lights;

@@ -12,5 +12,8 @@ void RegisterSynth(CLI::App& app, Runner* run);
 void RegisterRelight(CLI::App& app, Runner* run);
 void RegisterReconstruct(CLI::App& app, Runner* run);
 void RegisterEvaluate(CLI::App& app, Runner* run);
+void RegisterCalibrate(CLI::App& app, Runner* run);
+void RegisterCapture(CLI::App& app, Runner* run);
+void RegisterExport(CLI::App& app, Runner* run);
 
 }  // namespace svbrdf::cli

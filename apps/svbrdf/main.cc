@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
   svbrdf::cli::RegisterRelight(app, &run);
   svbrdf::cli::RegisterReconstruct(app, &run);
   svbrdf::cli::RegisterEvaluate(app, &run);
+  svbrdf::cli::RegisterCalibrate(app, &run);
+  svbrdf::cli::RegisterCapture(app, &run);
+  svbrdf::cli::RegisterExport(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

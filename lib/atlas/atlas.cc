@@ -159,14 +159,34 @@ Texel MakeTexel(const Mesh& mesh, int x, int y, const Claim& c) {
   return t;
 }
 
+// Claims the texels under the corners, edge midpoints and centroid of every
+// UV triangle that are still free (in face order: deterministic).
+void CoverSmallTriangles(const Mesh& mesh, int width, int height, std::vector<Claim>* grid) {
+  for (int f = 0; f < int(mesh.face_uvs.size()); ++f) {
+    const UvTriangle tri(mesh, f, width, height);
+    if (tri.Degenerate()) continue;
+    const Vec2 bary[7] = {Vec2(0, 0), Vec2(1, 0), Vec2(0, 1), Vec2(0.5, 0), Vec2(0.5, 0.5), Vec2(0, 0.5),
+                          Vec2(1.0 / 3, 1.0 / 3)};
+    for (const Vec2& b : bary) {
+      const Vec2 p = tri.Point(b);
+      const int x = std::clamp(int(std::floor(p.x())), 0, width - 1), y = std::clamp(int(std::floor(p.y())), 0, height - 1);
+      Claim& claim = (*grid)[size_t(y) * width + x];
+      if (claim.prim >= 0) continue;
+      const Vec2 c = ClampedBarycentric(tri, TexelCentre(x, y));
+      claim = {f, c.x(), c.y(), false};
+    }
+  }
+}
+
 }  // namespace
 
-Atlas BuildAtlas(const Mesh& mesh, int width, int height, int dilate) {
+Atlas BuildAtlas(const Mesh& mesh, int width, int height, int dilate, bool cover_small) {
   if (!mesh.HasUVs()) throw Error("BuildAtlas: mesh has no texture coordinates");
   if (width <= 0 || height <= 0) throw Error(Msg("BuildAtlas: invalid atlas size ", width, "x", height));
   mesh.Validate("BuildAtlas");  // UV face count and index ranges
 
   std::vector<Claim> grid = Rasterise(mesh, width, height);
+  if (cover_small) CoverSmallTriangles(mesh, width, height, &grid);
   for (int i = 0; i < dilate; ++i) grid = DilateOnce(mesh, grid, width, height);
 
   Atlas atlas;

@@ -28,8 +28,12 @@ struct Atlas {
   int At(int x, int y) const { return index[size_t(y) * width + x]; }
 };
 
-// Requires mesh.HasUVs(); throws Error otherwise.
-Atlas BuildAtlas(const Mesh& mesh, int width, int height, int dilate = 1);
+// Requires mesh.HasUVs(); throws Error otherwise. `cover_small`: a UV triangle
+// that contains no texel centre (or whose corners, edge midpoints or centroid
+// lie in texels it did not claim) still claims those texels, before dilation:
+// every triangle then has data under its bilinear lookups (generated chart
+// atlases with triangles smaller than a texel).
+Atlas BuildAtlas(const Mesh& mesh, int width, int height, int dilate = 1, bool cover_small = false);
 
 // Gives a mesh without UVs a simple atlas: each triangle gets its own cell in
 // a square grid, with a gutter (enough for per-texel reconstruction; charts

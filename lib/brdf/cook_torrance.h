@@ -28,18 +28,8 @@ template <class T> struct CookTorrance {
   Shadowing shadowing = Shadowing::kVCavity;
   FresnelMode fresnel = FresnelMode::kExact;
 
-  T P(const T& cos_h) const {
-    switch (distribution) {
-      case Distribution::kBlinnGaussian: return BlinnGaussianP(cos_h, m);
-      case Distribution::kGGX: return GgxP(cos_h, m);
-      case Distribution::kBeckmann: break;
-    }
-    return BeckmannP(cos_h, m);
-  }
-
-  T G1(const T& cos_t) const {
-    return distribution == Distribution::kGGX ? SmithG1Ggx(cos_t, m) : SmithG1Beckmann(cos_t, m);
-  }
+  T P(const T& cos_h) const { return MicrofacetP(distribution, cos_h, m); }
+  T G1(const T& cos_t) const { return SmithG1(distribution, cos_t, m); }
 
   T G(const Vec3T<T>& wi, const Vec3T<T>& wo, const Vec3T<T>& h) const {
     return shadowing == Shadowing::kSmith ? G1(wi.z()) * G1(wo.z()) : VCavityG(wi, wo, h);
@@ -49,7 +39,8 @@ template <class T> struct CookTorrance {
     switch (fresnel) {
       case FresnelMode::kSchlick: return FresnelSchlick(c, n);
       case FresnelMode::kNone: return T(1);
-      case FresnelMode::kExact: break;
+      case FresnelMode::kExact:
+      case FresnelMode::kF82Tint: break;  // F82 is a conductor form; not offered for Cook-Torrance
     }
     return FresnelDielectric(c, n);
   }

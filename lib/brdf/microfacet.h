@@ -8,6 +8,7 @@
 // 1/pi: D = p(H)/pi is the normalised density, int D <N|H> dH = 1.
 #pragma once
 #include "brdf/common.h"
+#include "brdf/model.h"
 
 namespace svbrdf::brdf {
 
@@ -65,6 +66,29 @@ template <class T> T SmithG1Ggx(const T& cos_t, const T& m) {
   using std::sqrt;
   const T c2 = cos_t * cos_t;
   return T(2) / (T(1) + sqrt(T(1) + m * m * (T(1) - c2) / c2));
+}
+
+// p(H) of the chosen distribution.
+template <class T> T MicrofacetP(Distribution d, const T& cos_h, const T& m) {
+  switch (d) {
+    case Distribution::kBlinnGaussian: return BlinnGaussianP(cos_h, m);
+    case Distribution::kGGX: return GgxP(cos_h, m);
+    case Distribution::kBeckmann: break;
+  }
+  return BeckmannP(cos_h, m);
+}
+
+// Smith masking G1 of the chosen distribution (Beckmann's for the Blinn Gaussian).
+template <class T> T SmithG1(Distribution d, const T& cos_t, const T& m) {
+  return d == Distribution::kGGX ? SmithG1Ggx(cos_t, m) : SmithG1Beckmann(cos_t, m);
+}
+
+// The microfacet reflection without Fresnel, p(H)/pi G1(L) G1(E) / (4 <N|L><N|E>)
+// (a normalised density times Smith shadowing), for a Fresnel factor evaluated
+// at <H|E> by the caller: the specular part of conductors and coats.
+template <class T> T SmithMicrofacet(Distribution d, const Vec3T<T>& wi, const Vec3T<T>& wo, const Vec3T<T>& h,
+                                     const T& m) {
+  return MicrofacetP(d, h.z(), m) * SmithG1(d, wi.z(), m) * SmithG1(d, wo.z(), m) / (T(4 * kPi) * wi.z() * wo.z());
 }
 
 }  // namespace svbrdf::brdf

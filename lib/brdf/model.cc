@@ -15,6 +15,8 @@ const char* FamilyName(Family f) {
     case Family::kCosineLobe: return "cosine_lobe";
     case Family::kLafortune: return "lafortune";
     case Family::kCookTorrance: return "cook_torrance";
+    case Family::kConductor: return "conductor";
+    case Family::kCoated: return "coated";
   }
   return "?";
 }
@@ -34,10 +36,12 @@ struct ParamCollector {
   std::string prefix;
   void Lobe(int i) { prefix = Msg("lobe", i, "."); }
   void Scalar(double&, const char* name, const char* desc, double lo, double hi, double init) {
-    params.push_back({prefix + name, desc, lo, hi, init});
+    params.push_back({prefix + name, desc, lo, hi, init, false});
   }
-  void Rgb(brdf::RgbT<double>&, const char* name, const char* desc, double lo, double hi, double init) {
-    for (const char* c : {"_r", "_g", "_b"}) params.push_back({prefix + name + c, Msg(desc, " (", c + 1, ")"), lo, hi, init});
+  void Rgb(brdf::RgbT<double>&, const char* name, const char* desc, double lo, double hi, double init,
+           bool linear = true) {
+    for (const char* c : {"_r", "_g", "_b"})
+      params.push_back({prefix + name + c, Msg(desc, " (", c + 1, ")"), lo, hi, init, linear});
   }
 };
 
@@ -46,7 +50,7 @@ struct ParamCounter {
   int n = 0;
   void Lobe(int) {}
   void Scalar(double&, const char*, const char*, double, double, double) { n += 1; }
-  void Rgb(brdf::RgbT<double>&, const char*, const char*, double, double, double) { n += 3; }
+  void Rgb(brdf::RgbT<double>&, const char*, const char*, double, double, double, bool = true) { n += 3; }
 };
 
 }  // namespace
@@ -63,6 +67,12 @@ std::string ModelSpec::Label() const {
     if (shadowing == Shadowing::kSmith) label += "-smith";
     if (fresnel == FresnelMode::kSchlick) label += "-schlick";
     if (fresnel == FresnelMode::kNone) label += "-nofresnel";
+  } else if (family == Family::kConductor) {
+    label += Msg("-", DistributionName(distribution));
+    if (fresnel == FresnelMode::kSchlick) label += "-schlick";
+    if (fresnel == FresnelMode::kF82Tint) label += "-f82";
+  } else if (family == Family::kCoated) {
+    label += Msg("-", DistributionName(distribution));
   }
   return label;
 }
@@ -112,6 +122,23 @@ std::vector<ModelSpec> AllModelSpecs() {
         all.push_back(s);
       }
     }
+  }
+  for (Distribution d : {Distribution::kBeckmann, Distribution::kGGX}) {
+    for (FresnelMode fr : {FresnelMode::kExact, FresnelMode::kSchlick, FresnelMode::kF82Tint}) {
+      ModelSpec s;
+      s.family = Family::kConductor;
+      s.distribution = d;
+      s.shadowing = Shadowing::kSmith;
+      s.fresnel = fr;
+      all.push_back(s);
+    }
+  }
+  for (Distribution d : {Distribution::kBeckmann, Distribution::kGGX}) {
+    ModelSpec s;
+    s.family = Family::kCoated;
+    s.distribution = d;
+    s.shadowing = Shadowing::kSmith;
+    all.push_back(s);
   }
   return all;
 }

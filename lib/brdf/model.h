@@ -21,31 +21,40 @@ enum class Family {
   kCosineLobe,    // Lewis 1993: rd/pi + rs (m+2)/(2 pi) <R|E>^m
   kLafortune,     // rd/pi + sum_i rho_i (Cx Ex Lx + Cy Ey Ly + Cz Ez Lz)^n_i
   kCookTorrance,  // rd/pi + rs/pi D G F / (4 <N|L><N|E>)
+  kConductor,     // metal: D G1 G1 F / (4 <N|L><N|E>), coloured (complex-index / Schlick / F82) Fresnel, no diffuse
+  kCoated,        // coat: D G1 G1 F / (4 <N|L><N|E>) + Lambertian base seen through the coat (coated.h)
 };
 
 enum class Distribution { kBeckmann, kBlinnGaussian, kGGX };
 enum class Shadowing { kVCavity, kSmith };  // V-cavity min(1,Gm,Gs) or Smith (GGX/Beckmann)
-enum class FresnelMode { kExact, kSchlick, kNone };
+// kExact: dielectric (ior) for Cook-Torrance, complex eta + i kappa for
+// conductors; kSchlick: from ior (Cook-Torrance) or a per-channel f0
+// (conductors); kF82Tint: conductors only (fresnel.h).
+enum class FresnelMode { kExact, kSchlick, kNone, kF82Tint };
 
 struct ParamInfo {
   std::string name;         // e.g. "rd_r", "lobe0.cx", "roughness"
   std::string description;  // meaning and unit
   double lower, upper;      // documented valid range (also the fit bounds)
   double initial;           // a sensible starting value for fits
+  // The model is affine in this parameter (colour amplitudes such as rd, rs,
+  // rho, f0), so fits may start it from a linear least-squares estimate.
+  bool linear = false;
 };
 
 struct ModelSpec {
   Family family = Family::kLambert;
   int lobes = 1;                 // Lafortune only: 1..3
   bool anisotropic = false;      // Lafortune only: Cx != Cy allowed
-  Distribution distribution = Distribution::kBeckmann;  // Cook-Torrance only
-  Shadowing shadowing = Shadowing::kVCavity;            // Cook-Torrance only
-  FresnelMode fresnel = FresnelMode::kExact;            // Cook-Torrance only
+  Distribution distribution = Distribution::kBeckmann;  // Cook-Torrance, conductor, coated
+  Shadowing shadowing = Shadowing::kVCavity;            // Cook-Torrance only (conductor, coated: Smith)
+  FresnelMode fresnel = FresnelMode::kExact;            // Cook-Torrance, conductor
 
   // Stable name used in material.json "model", e.g. "lambert", "lafortune",
   // "cook_torrance". Options (lobes, distribution, ...) are separate fields.
   std::string Name() const;
-  // Human-readable short label, e.g. "lafortune-2-aniso", "cook_torrance-ggx".
+  // Human-readable short label, e.g. "lafortune-2-aniso", "cook_torrance-ggx",
+  // "conductor-ggx" (exact Fresnel), "conductor-beckmann-f82", "coated-ggx".
   std::string Label() const;
   int NumParams() const;
   std::vector<ParamInfo> Params() const;

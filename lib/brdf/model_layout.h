@@ -9,9 +9,12 @@
 //   void Lobe(int i);  // following names belong to Lafortune lobe i
 //   void Scalar(T& field, const char* name, const char* description,
 //               double lower, double upper, double initial);
-//   void Rgb(RgbT<T>& field, <same>);  // three parameters name_r, name_g, name_b
+//   void Rgb(RgbT<T>& field, <same>, bool linear = true);  // three parameters name_r, name_g, name_b;
+//                                     // linear: the model is affine in them (ParamInfo::linear)
 #pragma once
 #include "brdf/blinn_phong.h"
+#include "brdf/coated.h"
+#include "brdf/conductor.h"
 #include "brdf/cook_torrance.h"
 #include "brdf/cosine_lobe.h"
 #include "brdf/lafortune.h"
@@ -26,7 +29,7 @@ template <class T> struct ParamReader {
   const T* p;
   void Lobe(int) {}
   void Scalar(T& x, const char*, const char*, double, double, double) { x = *p++; }
-  void Rgb(RgbT<T>& c, const char*, const char*, double, double, double) {
+  void Rgb(RgbT<T>& c, const char*, const char*, double, double, double, bool = true) {
     c = RgbT<T>(p[0], p[1], p[2]);
     p += 3;
   }
@@ -76,6 +79,27 @@ template <class V, class T> void VisitParams(V& v, const ModelSpec&, CookTorranc
   v.Scalar(m.n, "ior", "index of refraction n", 1.05, 3.0, 1.5);
 }
 
+// Ranges reach real metals: F0 up to ~0.999 (eta 0.02, kappa 10), and
+// mirror-like roughness down to 0.01. Fits start from a grey metal of F0 0.86.
+template <class V, class T> void VisitParams(V& v, const ModelSpec& spec, Conductor<T>& m) {
+  if (spec.fresnel == FresnelMode::kExact) {
+    v.Rgb(m.eta, "eta", "real part of the complex index of refraction", 0.02, 6.0, 1.0, false);
+    v.Rgb(m.kappa, "kappa", "imaginary part (extinction coefficient) of the index", 0.0, 10.0, 5.0, false);
+  } else {
+    v.Rgb(m.f0, "f0", "reflectance at normal incidence", 0.0, 1.0, 0.86);
+    if (spec.fresnel == FresnelMode::kF82Tint)
+      v.Rgb(m.f82_tint, "f82_tint", "reflectance at 82 deg relative to Schlick's", 0.0, 1.0, 1.0, false);
+  }
+  v.Scalar(m.m, "roughness", "microfacet roughness (GGX alpha or Beckmann RMS slope)", 0.01, 1.0, 0.1);
+}
+
+// rd is not linear: the base's re-reflections under the coat add 1/(1 - rd F_int).
+template <class V, class T> void VisitParams(V& v, const ModelSpec&, Coated<T>& m) {
+  v.Rgb(m.rd, "rd", "albedo of the diffuse base under the coat", 0.0, 1.0, 0.5, false);
+  v.Scalar(m.m, "roughness", "roughness of the coat (GGX alpha or Beckmann RMS slope)", 0.01, 1.0, 0.1);
+  v.Scalar(m.n, "ior", "index of refraction of the coat", 1.1, 2.5, 1.5);
+}
+
 // Calls fn(model) with a default-initialised value class of the spec's family
 // and options; the caller fills the parameters with VisitParams.
 template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
@@ -96,6 +120,19 @@ template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
       m.distribution = spec.distribution;
       m.shadowing = spec.shadowing;
       m.fresnel = spec.fresnel;
+      fn(m);
+      return;
+    }
+    case Family::kConductor: {
+      Conductor<T> m;
+      m.distribution = spec.distribution;
+      m.fresnel = spec.fresnel;
+      fn(m);
+      return;
+    }
+    case Family::kCoated: {
+      Coated<T> m;
+      m.distribution = spec.distribution;
       fn(m);
       return;
     }

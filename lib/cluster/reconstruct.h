@@ -24,10 +24,14 @@
 //        weak prior towards its own cluster), and the squared error on its
 //        held-out samples is measured. A split counts as an improvement when
 //        the error drops by `min_improvement` (relative) and by `min_z`
-//        standard errors (paired test over texels); otherwise the split is
+//        standard errors (paired tests over texels: on squared errors, or on
+//        bounded per-texel changes), and beats a control split of the same
+//        cluster along a non-material direction by as much (`control_split`:
+//        honest when model error dominates); otherwise the split is
 //        undone and the next-worst cluster is split instead (3 failures in a
 //        row end the search); a split whose smaller half has fewer than
-//        `min_cluster_fraction` of the texels is not made.
+//        `min_cluster_fraction` of the texels is not made. No clustering
+//        state (texel partition) is evaluated twice.
 //  3. Model economy per cluster: fit every candidate model to the cluster's
 //     training samples (`selection_samples` of them), keep the model with the
 //     fewest parameters unless the best model's held-out RMSE (trimmed of the
@@ -38,6 +42,8 @@
 //     the held-out samples better.
 //  5. Texels with too few or poorly spread samples: weights filled in from
 //     neighbouring texels, low confidence.
+//  6. Per cluster: held-out RMSE relative to the signal; clusters above
+//     `poor_fit` are reported as poorly explained (no candidate fits them).
 #pragma once
 #include <string>
 #include <vector>
@@ -52,7 +58,8 @@ namespace svbrdf {
 struct ReconstructOptions {
   // Models tried for every basis material (model selection); `force_model` skips the choice.
   std::vector<std::string> candidate_models = {"lambert", "oren_nayar", "lafortune-1", "lafortune-2",
-                                               "cook_torrance-beckmann", "cook_torrance-ggx"};
+                                               "cook_torrance-beckmann", "cook_torrance-ggx", "conductor-ggx-schlick",
+                                               "conductor-ggx", "conductor-beckmann", "coated-ggx", "coated-beckmann"};
   std::string force_model;
   std::string cluster_model = "lafortune-1";  // model used while splitting
   int max_clusters = 6;
@@ -60,6 +67,11 @@ struct ReconstructOptions {
   double holdout_fraction = 0.2;
   double min_improvement = 0.02; // a split must lower the held-out squared error by this (relative)
   double min_z = 3.0;            // ... and by this many standard errors (paired over texels)
+  // A split must also beat, by min_improvement and min_z, the control split of
+  // the same cluster along a non-material direction (honest stopping when
+  // model error dominates the residuals; see split.h GeometrySplitSides).
+  bool control_split = true;
+  double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
   double parsimony = 0.001;      // prefer fewer parameters unless the best's RMSE is lower by this x signal RMS
@@ -76,10 +88,12 @@ struct ReconstructOptions {
   void Check() const;
 };
 
+// One evaluated clustering state (every state is evaluated at most once).
 struct ClusterStep {
   int clusters = 0;
   double train_rmse = 0, heldout_rmse = 0;
-  bool accepted = true;
+  bool accepted = true;     // the state finally chosen
+  uint64_t partition = 0;   // canonical key of the texel partition (PartitionKey)
 };
 
 struct ModelChoice {
@@ -88,6 +102,16 @@ struct ModelChoice {
   double heldout_rmse = 0;
   int num_params = 0;
   bool chosen = false;
+};
+
+// How well the final basis materials and weights explain each cluster's
+// held-out samples.
+struct ClusterQuality {
+  int cluster = 0;
+  int texels = 0;
+  double heldout_rmse = 0;   // per channel, with the final weights mode
+  double signal_rms = 0;     // RMS of the held-out samples themselves
+  bool poorly_explained = false;  // heldout_rmse > poor_fit * signal_rms
 };
 
 struct SvbrdfEstimate {
@@ -99,9 +123,11 @@ struct SvbrdfEstimate {
   std::vector<float> confidence;  // per texel, [0,1]
   std::vector<float> residual;    // per texel RMS residual of its samples
   std::vector<ClusterStep> history;
+  int states_revisited = 0;       // splits that led back to an evaluated state (skipped, not re-evaluated)
   std::vector<ModelChoice> model_choices;
   double heldout_rmse = 0;        // final, with the chosen weights mode
   double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;
+  std::vector<ClusterQuality> cluster_quality;
 };
 
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options);

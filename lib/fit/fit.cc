@@ -23,6 +23,8 @@ constexpr int kBatch = 64;
 // is refined on all samples (the screening costs a fraction of one full fit).
 constexpr int64_t kScreenSamples = 2000;
 constexpr int kScreenIterations = 25;
+// Samples of the first full solve; later stages grow 4x (see FitModel).
+constexpr int64_t kStageSamples = 4000;
 
 // The samples to fit in seeded-hash order: a deterministic random subset of at
 // most max_samples that does not depend on the order of `ids`, and whose
@@ -83,6 +85,26 @@ Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const 
   return solution;
 }
 
+// Mean loss per residual over packed samples [begin, end) (the Cauchy loss
+// when robust_scale > 0, as in the fit) and the standard error of that mean.
+std::pair<double, double> MeanLoss(const ModelSpec& spec, const std::vector<double>& params,
+                                   const PackedSamples& packed, int64_t begin, int64_t end, double robust_scale) {
+  double sum = 0, sum2 = 0;
+  for (int64_t i = begin; i < end; ++i) {
+    const double* row = packed.row(i);
+    const Rgb f = EvalModelD(spec, params.data(), Vec3(row[0], row[1], row[2]), Vec3(row[3], row[4], row[5]));
+    for (int c = 0; c < 3; ++c) {
+      const double r = f[c] * row[6] - row[7 + c];
+      const double l = robust_scale > 0 ? robust_scale * robust_scale * std::log1p(r * r / (robust_scale * robust_scale))
+                                        : r * r;
+      sum += l;
+      sum2 += l * l;
+    }
+  }
+  const double count = 3.0 * std::max<int64_t>(1, end - begin), mean = sum / count;
+  return {mean, std::sqrt(std::max(0.0, sum2 / count - mean * mean) / count)};
+}
+
 }  // namespace
 
 void FitOptions::Check() const {
@@ -134,7 +156,23 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
       }
     }
   }
-  const Solution final = Solve(spec, info, packed, n, best, options, options.max_iterations);
+  // Samples from the statistics: solve on a prefix (a random subset), then
+  // check it on the next, unseen samples. When their mean loss is within 3
+  // standard errors (or 1 %) of the fitted one, the fit generalises and more
+  // samples would not change it; otherwise continue from it on 4x as many.
+  int64_t m = std::min(n, kStageSamples);
+  Solution final = Solve(spec, info, packed, m, best, options, options.max_iterations);
+  while (m < n && final.usable()) {
+    const int64_t next = std::min(n, 4 * m);
+    const double fitted = MeanLoss(spec, final.params, packed, 0, m, options.robust_scale).first;
+    const auto [unseen, se] = MeanLoss(spec, final.params, packed, m, next, options.robust_scale);
+    if (unseen <= fitted + std::max(3.0 * se, 0.01 * fitted)) break;
+    Solution more = Solve(spec, info, packed, next, final.params, options, options.max_iterations);
+    if (!more.usable()) break;  // keep the last good stage
+    m = next;
+    final = std::move(more);
+  }
+  result.samples_used = m;
   const ceres::Solver::Summary& summary = final.summary;
   result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   result.message = summary.message;

@@ -6,6 +6,9 @@
 #include <cmath>
 #include <string>
 
+#include "brdf/fresnel.h"
+#include "core/error.h"
+
 namespace svbrdf {
 namespace {
 
@@ -13,12 +16,19 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-// Colour parameter groups: index of the _r, _g, _b parameter of each group.
+int ParamIndex(const std::vector<ParamInfo>& info, const std::string& name) {
+  for (int i = 0; i < static_cast<int>(info.size()); ++i)
+    if (info[i].name == name) return i;
+  throw Error(Msg("starts: no parameter '", name, "'"));
+}
+
+// Colour parameter groups the model is affine in (ParamInfo::linear): index
+// of the _r, _g, _b parameter of each group.
 std::vector<std::array<int, 3>> ColourGroups(const std::vector<ParamInfo>& info) {
   static const char* kSuffix[3] = {"_r", "_g", "_b"};
   std::vector<std::array<int, 3>> groups;
   for (int i = 0; i < static_cast<int>(info.size()); ++i) {
-    if (!EndsWith(info[i].name, kSuffix[0])) continue;
+    if (!info[i].linear || !EndsWith(info[i].name, kSuffix[0])) continue;
     const std::string stem = info[i].name.substr(0, info[i].name.size() - 2);
     std::array<int, 3> g{i, -1, -1};
     for (int j = 0; j < static_cast<int>(info.size()); ++j)
@@ -44,6 +54,8 @@ std::vector<int> ShapeParams(const ModelSpec& spec, const std::vector<ParamInfo>
         if (n == "n" || n == "m" || n == "exponent" || n == "shininess") out.push_back(i);
         break;
       case Family::kCookTorrance:
+      case Family::kConductor:
+      case Family::kCoated:
         if (n == "roughness" || n == "m" || n == "alpha") out.push_back(i);
         break;
       default:
@@ -60,7 +72,39 @@ void ClampToBounds(const ModelSpec& spec, std::vector<double>* params) {
   for (size_t i = 0; i < info.size(); ++i) (*params)[i] = std::clamp((*params)[i], info[i].lower, info[i].upper);
 }
 
+namespace {
+
+// A conductor with the exact Fresnel is not linear in (eta, kappa). Its start
+// comes from the linear f0 of its Schlick twin (same distribution and
+// roughness), turned into an index that reproduces f0 at normal incidence:
+// eta = 1 - f0 (metals that reflect strongly have small eta: silver, gold
+// and copper in the red) and the matching kappa. The colour of the start
+// thus follows the data instead of a guessed list of metals.
+void ConductorStartFromF0(const ModelSpec& spec, const PackedSamples& packed, int64_t count,
+                          std::vector<double>* params) {
+  const std::vector<ParamInfo> info = spec.Params();
+  ModelSpec twin = spec;
+  twin.fresnel = FresnelMode::kSchlick;
+  const std::vector<ParamInfo> twin_info = twin.Params();
+  std::vector<double> tp = twin.InitialParams();
+  tp[ParamIndex(twin_info, "roughness")] = (*params)[ParamIndex(info, "roughness")];
+  FitAmplitudes(twin, packed, count, &tp);
+  for (const char* c : {"_r", "_g", "_b"}) {
+    const double f0 = std::min(tp[ParamIndex(twin_info, std::string("f0") + c)], 0.995);
+    const double eta = std::clamp(1.0 - f0, 0.05, 1.0);
+    (*params)[ParamIndex(info, std::string("eta") + c)] = eta;
+    (*params)[ParamIndex(info, std::string("kappa") + c)] = brdf::ConductorKappaFromF0(f0, eta);
+  }
+  ClampToBounds(spec, params);
+}
+
+}  // namespace
+
 void FitAmplitudes(const ModelSpec& spec, const PackedSamples& packed, int64_t count, std::vector<double>* params) {
+  if (spec.family == Family::kConductor && spec.fresnel == FresnelMode::kExact) {
+    ConductorStartFromF0(spec, packed, count, params);
+    return;
+  }
   const std::vector<ParamInfo> info = spec.Params();
   const auto groups = ColourGroups(info);
   const int g_count = static_cast<int>(groups.size());
@@ -114,7 +158,12 @@ std::vector<std::vector<double>> ShapeStarts(const ModelSpec& spec, const std::v
   if (shape.empty()) return starts;
   static const std::vector<double> kExponents{5, 30, 200};
   static const std::vector<double> kRoughness{0.05, 0.15, 0.4};
-  const std::vector<double>& values = spec.family == Family::kCookTorrance ? kRoughness : kExponents;
+  // Metals are often polished: start one fit near a mirror.
+  static const std::vector<double> kMetalRoughness{0.02, 0.08, 0.3};
+  const std::vector<double>& values = spec.family == Family::kConductor ? kMetalRoughness
+                                      : spec.family == Family::kCookTorrance || spec.family == Family::kCoated
+                                          ? kRoughness
+                                          : kExponents;
   for (size_t s = 0; s < values.size(); ++s) {
     std::vector<double> p = base;
     // Lobe k of start s takes value (s + k) mod 3: lobes start apart and every

@@ -1,10 +1,13 @@
 #include "gather/gather.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "atlas/charts.h"
 #include "core/progress.h"
 #include "raytrace/raytracer.h"
 
@@ -13,6 +16,10 @@ namespace svbrdf {
 void GatherOptions::Check() const {
   if (texture_size < 4 || texture_size > 8192) throw Error(Msg("gather: texture size must be in [4, 8192], got ", texture_size));
   if (!(min_cos >= 0 && min_cos < 1)) throw Error(Msg("gather: min_cos must be in [0, 1), got ", min_cos));
+  if (!(texel_footprint > 0 && texel_footprint <= 1000))
+    throw Error(Msg("gather: texel footprint must be in (0, 1000] pixels, got ", texel_footprint));
+  if (max_atlas_size < 16 || max_atlas_size > 16384)
+    throw Error(Msg("gather: max atlas size must be in [16, 16384], got ", max_atlas_size));
 }
 
 std::string GatherStats::Report() const {
@@ -35,6 +42,30 @@ struct Record {
 
 }  // namespace
 
+double MedianPixelFootprint(const Scene& scene, const Mesh& mesh, double min_cos) {
+  std::vector<double> footprints;
+  const size_t step = std::max<size_t>(1, mesh.positions.size() / 2000);
+  for (const ImageEntry& e : scene.images) {
+    const Camera& cam = scene.CameraById(e.camera);
+    const Vec3 eye = e.cam_from_world.CentreInWorld();
+    for (size_t v = 0; v < mesh.positions.size(); v += step) {
+      const Vec3& x = mesh.positions[v];
+      const Vec3 xc = e.cam_from_world * x;
+      if (xc.z() <= 1e-9) continue;
+      if (v < mesh.normals.size() && mesh.normals[v].dot((eye - x).normalized()) < min_cos) continue;
+      const Vec2 px = cam.Project(xc);
+      if (!(px.x() >= 0 && px.y() >= 0 && px.x() <= cam.width && px.y() <= cam.height)) continue;
+      // Length per pixel head-on: a small step across the ray, in pixels.
+      const double d = 1e-3 * xc.z();
+      const double pixels = (cam.Project(xc + Vec3(d, 0, 0)) - px).norm();
+      if (pixels > 0) footprints.push_back(d / pixels);
+    }
+  }
+  if (footprints.empty()) return 0.0;
+  std::nth_element(footprints.begin(), footprints.begin() + footprints.size() / 2, footprints.end());
+  return footprints[footprints.size() / 2];
+}
+
 GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   options.Check();
   GatherResult out;
@@ -42,17 +73,24 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   out.mesh.Validate(scene.Resolve(scene.mesh));
   int size = options.texture_size;
   if (!out.mesh.HasUVs()) {
-    // One atlas cell per triangle needs at least 3 texels a side (a texel
-    // and its gutter); a scanned mesh gets the atlas it needs, not less.
-    const int cells = static_cast<int>(std::ceil(std::sqrt(double(out.mesh.faces.size()))));
-    size = std::max(size, 4 * cells);
-    out.mesh = MakeTrivialAtlasUVs(out.mesh, size);
+    // A chart atlas at about one texel per pixel footprint: finer texels
+    // would hold too few samples each, coarser ones blur the material.
+    ChartAtlasOptions co;
+    co.max_resolution = options.max_atlas_size;
+    const double footprint = MedianPixelFootprint(scene, out.mesh, options.min_cos);
+    if (!(footprint > 0)) throw Error(Msg(scene.mesh, ": no vertex of the mesh is seen by any photo"));
+    co.texel_size = options.texel_footprint * footprint;
+    ChartAtlasInfo info;
+    out.mesh = MakeChartAtlasUVs(out.mesh, co, &info);
+    size = info.resolution;
     out.made_uvs = true;
+    std::fprintf(stderr, "  chart atlas: %d charts, %dx%d texels of %.3g (pixel footprint %.3g), %.0f %% filled\n",
+                 info.charts, size, size, info.texel_size, footprint, 100 * info.fill);
   }
-  out.atlas = BuildAtlas(out.mesh, size, size, 1);
+  out.atlas = BuildAtlas(out.mesh, size, size, 1, out.made_uvs);
   const Atlas& atlas = out.atlas;
   const long nt = static_cast<long>(atlas.texels.size());
-  if (nt == 0) throw Error(Msg(scene.mesh, ": texture coordinates cover no texel of a ", options.texture_size, "^2 atlas"));
+  if (nt == 0) throw Error(Msg(scene.mesh, ": texture coordinates cover no texel of a ", size, "^2 atlas"));
   RayTracer tracer(out.mesh);
   const double eps = 1e-4;  // ray offset (metres)
 

@@ -19,7 +19,12 @@
 namespace svbrdf {
 
 struct GatherOptions {
-  int texture_size = 128;       // atlas resolution (square)
+  int texture_size = 128;       // atlas resolution (square) of meshes with texture coordinates
+  // Meshes without texture coordinates get a chart atlas (atlas/charts.h)
+  // whose texel is `texel_footprint` pixel footprints at the median view
+  // (1 = one texel per pixel), at most `max_atlas_size` texels a side.
+  double texel_footprint = 1.0;
+  int max_atlas_size = 1024;
   double min_cos = 0.15;        // grazing limit for view and light directions (cos of the angle)
   int threads = 0;
   bool progress = true;
@@ -45,5 +50,10 @@ struct GatherResult {
 // Throws Error naming the view for a photo or mask whose size disagrees with
 // its camera, and when no usable sample remains (with the rejection counts).
 GatherResult Gather(const Scene& scene, const GatherOptions& options);
+
+// Median over (vertex, view) pairs of the surface length one pixel covers
+// head-on (distance / focal length in pixels), for vertices that face the
+// camera and project into its image; 0 when no vertex is seen.
+double MedianPixelFootprint(const Scene& scene, const Mesh& mesh, double min_cos);
 
 }  // namespace svbrdf

@@ -150,7 +150,8 @@ Mesh LoadMesh(const std::string& path) {
   return mesh;
 }
 
-void SaveObj(const Mesh& mesh, const std::string& path) {
+void SaveObj(const Mesh& mesh, const std::string& path, bool write_normals) {
+  write_normals = write_normals && mesh.normals.size() == mesh.positions.size();
   std::string out = "# svbrdf mesh\n";
   for (const Vec3& p : mesh.positions) {
     out += "v";
@@ -162,11 +163,19 @@ void SaveObj(const Mesh& mesh, const std::string& path) {
     for (int k = 0; k < 2; ++k) AppendNumber(out += ' ', t[k]);
     out += '\n';
   }
+  if (write_normals)
+    for (const Vec3& n : mesh.normals) {
+      out += "vn";
+      for (int k = 0; k < 3; ++k) AppendNumber(out += ' ', n[k]);
+      out += '\n';
+    }
   for (size_t i = 0; i < mesh.faces.size(); ++i) {
     out += "f";
     for (int k = 0; k < 3; ++k) {
       out += ' ' + std::to_string(mesh.faces[i][k] + 1);
-      if (mesh.HasUVs()) out += '/' + std::to_string(mesh.face_uvs[i][k] + 1);
+      if (mesh.HasUVs() || write_normals) out += '/';
+      if (mesh.HasUVs()) out += std::to_string(mesh.face_uvs[i][k] + 1);
+      if (write_normals) out += '/' + std::to_string(mesh.faces[i][k] + 1);  // normals are per position
     }
     out += '\n';
   }

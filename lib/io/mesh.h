@@ -27,7 +27,9 @@ struct Mesh {
 };
 
 Mesh LoadMesh(const std::string& path);  // by extension .obj / .ply; computes normals
-// Writes OBJ (with vt when present); atomic (temporary name, then rename).
-void SaveObj(const Mesh& mesh, const std::string& path);
+// Writes OBJ (with vt when present, and with the per-position normals as vn
+// when `write_normals`, so other renderers shade exactly as relight does);
+// atomic (temporary name, then rename).
+void SaveObj(const Mesh& mesh, const std::string& path, bool write_normals = false);
 
 }  // namespace svbrdf

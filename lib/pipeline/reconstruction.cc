@@ -9,6 +9,7 @@
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/normal_map.h"
+#include "pipeline/report_html.h"
 #include "relight/relight.h"
 
 namespace svbrdf {
@@ -158,6 +159,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   for (const auto& h : est.history)
     summary["cluster_history"].push_back(
         {{"clusters", h.clusters}, {"train_rmse", h.train_rmse}, {"heldout_rmse", h.heldout_rmse}, {"accepted", h.accepted}});
+  summary["states_revisited"] = est.states_revisited;
+  for (const auto& q : est.cluster_quality)
+    summary["cluster_quality"].push_back({{"cluster", q.cluster}, {"texels", q.texels}, {"heldout_rmse", q.heldout_rmse},
+                                          {"signal_rms", q.signal_rms}, {"poorly_explained", q.poorly_explained}});
   if (no.Enabled()) summary["normals"] = {{"mode", no.mode}, {"kept", nr.kept}, {"rounds", normals_rounds}};
   for (const auto& m : est.model_choices)
     summary["model_selection"].push_back({{"cluster", m.cluster}, {"model", m.label}, {"heldout_rmse", m.heldout_rmse},
@@ -193,6 +198,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["total_s"] = timer.Total();
   summary["peak_memory_mb"] = PeakMemoryMB();
   if (job.report) WriteFileAtomic(job.out_dir + "/report/summary.json", summary.dump(2));
+  if (job.report) WriteReportHtml(summary, job.out_dir + "/report");
   std::fprintf(stderr, "%s", timer.Report().c_str());
   return summary;
 }

@@ -1,6 +1,8 @@
 #include "relight/relight.h"
 
+#include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <random>
 
 #include "core/error.h"
@@ -15,6 +17,10 @@ namespace fs = std::filesystem;
 void RelightOptions::Check() const {
   if (samples_per_pixel < 1 || samples_per_pixel > 16)
     throw Error(Msg("relight: --spp must be in [1, 16], got ", samples_per_pixel));
+  if (env_samples < 1 || env_samples > 1 << 20)
+    throw Error(Msg("relight: --samples must be in [1, 1048576], got ", env_samples));
+  if (!(envmap_scale > 0) || !std::isfinite(envmap_scale))
+    throw Error(Msg("relight: --envmap-scale must be a finite number > 0, got ", envmap_scale));
 }
 
 
@@ -25,12 +31,7 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
   const Light& light = scene.LightById(entry.light);
   const Rigid3 world_from_cam = entry.cam_from_world.Inverse();
   const Vec3 eye = world_from_cam.translation;
-  const int n = options.samples_per_pixel;
   const double scene_scale = 1e-4;  // shadow-ray offset; meshes are in metres, objects ~0.1-10 m
-
-  RenderedView out;
-  out.color = Image(cam.width, cam.height, 3);
-  out.mask = Image(cam.width, cam.height, 1);
 
   // Radiance arriving at the camera along a pixel-coordinate ray (0 on a miss).
   auto shade = [&](double px, double py, bool* hit_out) -> Rgb {
@@ -57,6 +58,15 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
     return shader.Eval(uv, frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
   };
 
+  return RenderPixels(cam, entry, index, options, [&](double px, double py, Rng&, bool* hit) { return shade(px, py, hit); });
+}
+
+RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t index, const RelightOptions& options,
+                          const PixelRadiance& shade) {
+  const int n = options.samples_per_pixel;
+  RenderedView out;
+  out.color = Image(cam.width, cam.height, 3);
+  out.mask = Image(cam.width, cam.height, 1);
   Progress progress(Msg("render ", entry.file), cam.height, options.progress);
   ParallelFor(cam.height, options.threads, [&](long y) {
     Rng rng(StreamSeed(options.seed, index, y));
@@ -65,13 +75,15 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
       bool centre_hit = false;
       Rgb sum = Rgb::Zero();
       if (n == 1) {
-        sum = shade(x + 0.5, y + 0.5, &centre_hit);
+        sum = shade(x + 0.5, y + 0.5, rng, &centre_hit);
       } else {
-        shade(x + 0.5, y + 0.5, &centre_hit);  // mask from the pixel centre
+        shade(x + 0.5, y + 0.5, rng, &centre_hit);  // mask from the pixel centre
         for (int sy = 0; sy < n; ++sy)
           for (int sx = 0; sx < n; ++sx) {
             bool h;
-            sum += shade(x + (sx + u01(rng)) / n, y + (sy + u01(rng)) / n, &h);
+            const double jy = u01(rng);  // this order reproduces earlier renders bit for bit
+            const double jx = u01(rng);
+            sum += shade(x + (sx + jx) / n, y + (sy + jy) / n, rng, &h);
           }
         sum /= double(n * n);
       }
@@ -98,9 +110,20 @@ int RelightScene(const Material& material, const Scene& scene, const std::string
   options.Check();
   RayTracer tracer(material.mesh);
   MaterialShader shader(material);
+  std::unique_ptr<EnvironmentMap> env;
+  if (!options.envmap.empty()) {
+    const Image img = ReadImage(options.envmap);
+    std::vector<float> rgb(size_t(img.width) * img.height * 3);
+    for (size_t p = 0; p < size_t(img.width) * img.height; ++p)
+      for (int c = 0; c < 3; ++c) rgb[3 * p + c] = img.pixels[p * img.channels + std::min(c, img.channels - 1)];
+    env = std::make_unique<EnvironmentMap>(img.width, img.height, std::move(rgb), options.envmap, options.envmap_scale);
+    if (env->clamped_negative() > 0)
+      std::fprintf(stderr, "warning: %s: %ld negative values set to 0\n", options.envmap.c_str(), env->clamped_negative());
+  }
   for (size_t i = 0; i < scene.images.size(); ++i) {
     const ImageEntry& entry = scene.images[i];
-    RenderedView view = RenderView(tracer, shader, scene, i, options);
+    RenderedView view =
+        env ? RenderViewEnvironment(tracer, shader, scene, i, *env, options) : RenderView(tracer, shader, scene, i, options);
     const fs::path file = fs::path(out_dir) / entry.file;
     fs::create_directories(file.parent_path());
     WriteRendered(file.string(), view.color, scene.images_color_space);

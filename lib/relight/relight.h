@@ -7,7 +7,11 @@
 // E_n is the light's irradiance on a surface facing it (lib/light). No
 // interreflection (direct light only), as the reconstruction assumes.
 #pragma once
+#include <functional>
 #include <string>
+
+#include "core/rng.h"
+#include "light/envmap.h"
 
 #include "io/material.h"
 #include "io/scene.h"
@@ -22,6 +26,10 @@ struct RelightOptions {
   uint64_t seed = 1;          // jitter of supersampling
   bool png_preview = false;   // also write <file>.preview.png (sRGB, 8 bit)
   bool progress = true;
+  // Environment lighting (RenderViewEnvironment) instead of each entry's light:
+  std::string envmap;          // lat-long HDR image (EXR/HDR); empty = use the scene's lights
+  double envmap_scale = 1.0;   // multiplies the map's radiances
+  int env_samples = 64;        // per pixel sample: this many environment + as many cosine samples
   void Check() const;
 };
 
@@ -33,6 +41,22 @@ struct RenderedView {
 // Renders image entry `index` of `scene` (its camera, pose, light, exposure).
 RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene, size_t index,
                         const RelightOptions& options);
+
+// Renders image entry `index` (camera, pose, exposure) lit by the environment
+// instead of the entry's light: direct light with shadows, estimated per
+// pixel sample by multiple importance sampling (balance heuristic) of
+// options.env_samples directions from the environment's luminance sampler
+// and as many cosine-weighted directions about the shading normal, each
+// with a shadow ray (lib/raytrace). Deterministic for options.seed
+// (per-row random streams), multithreaded over rows.
+RenderedView RenderViewEnvironment(const RayTracer& tracer, const MaterialShader& shader, const Scene& scene,
+                                   size_t index, const EnvironmentMap& env, const RelightOptions& options);
+
+// The pixel loop shared by both: radiance(px, py, rng, &hit) per (sub)pixel
+// sample at continuous pixel coordinates; exposure, supersampling and mask.
+using PixelRadiance = std::function<Rgb(double px, double py, Rng& rng, bool* hit)>;
+RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t index, const RelightOptions& options,
+                          const PixelRadiance& radiance);
 
 // The relighting contract: renders every image entry into out_dir/<entry.file>
 // (format from its extension; integer formats encoded per the scene's

@@ -67,6 +67,17 @@ class FieldReader {
 
 #include "synth_presets.inc"  // kPresets: {name, json text} from datasets_synth/*.json
 
+nlohmann::json MaterialParamsJson(const std::vector<MaterialParams>& params) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const MaterialParams& p : params) {
+    nlohmann::json j = nlohmann::json::object();
+    if (!p.metal.empty()) j["metal"] = p.metal;
+    for (const auto& [name, value] : p.values) j[name] = value;
+    out.push_back(j);
+  }
+  return out;
+}
+
 }  // namespace
 
 SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& context) {
@@ -80,13 +91,31 @@ SynthOptions SynthOptions::FromJson(const nlohmann::json& j, const std::string& 
       "exposure", &o.exposure)("format", &o.format)("noise", &o.noise)("read_noise", &o.read_noise)(
       "pose_error_deg", &o.pose_error_deg)("pose_error_mm", &o.pose_error_mm)("light_error_mm", &o.light_error_mm)(
       "geometry_noise_mm", &o.geometry_noise_mm)("spp", &o.spp)("seed", &o.seed)("threads", &o.threads)(
-      "material", &material)("description", &description);
+      "material", &material)("description", &description)("mesh_file", &o.mesh_file)("mesh_uvs", &o.mesh_uvs);
   r.RejectUnknown();
   FieldReader m(material, context + ": material");
+  nlohmann::json params = nlohmann::json::array();
   m("num_materials", &o.material.num_materials)("models", &o.material.models)(
       "texture_size", &o.material.texture_size)("blend", &o.material.blend)("variation", &o.material.variation)(
-      "bump", &o.material.bump)("seed", &o.material.seed);
+      "bump", &o.material.bump)("seed", &o.material.seed)("params", &params);
   m.RejectUnknown();
+  // "params": one object per material, {"metal": "gold", "<param>": value, ...}.
+  if (!params.is_array()) throw Error(Msg(context, ": material: field 'params': expected an array of objects"));
+  for (size_t k = 0; k < params.size(); ++k) {
+    const std::string where = Msg(context, ": material: params[", k, "]");
+    if (!params[k].is_object()) throw Error(Msg(where, ": expected an object of parameter values"));
+    MaterialParams mp;
+    for (const auto& [key, value] : params[k].items()) {
+      if (key == "metal") {
+        if (!value.is_string()) throw Error(Msg(where, ": field 'metal': expected a string"));
+        mp.metal = value.get<std::string>();
+      } else {
+        if (!value.is_number()) throw Error(Msg(where, ": field '", key, "': expected a number"));
+        mp.values[key] = value.get<double>();
+      }
+    }
+    o.material.params.push_back(mp);
+  }
   o.Check();
   return o;
 }
@@ -98,10 +127,11 @@ nlohmann::json SynthOptions::ToJson() const {
           {"exposure", exposure}, {"format", format}, {"noise", noise}, {"read_noise", read_noise},
           {"pose_error_deg", pose_error_deg}, {"pose_error_mm", pose_error_mm}, {"light_error_mm", light_error_mm},
           {"geometry_noise_mm", geometry_noise_mm}, {"spp", spp}, {"seed", seed},
+          {"mesh_file", mesh_file}, {"mesh_uvs", mesh_uvs},
           {"material",
            {{"num_materials", material.num_materials}, {"models", material.models},
             {"texture_size", material.texture_size}, {"blend", material.blend}, {"variation", material.variation},
-            {"bump", material.bump}, {"seed", material.seed}}}};
+            {"bump", material.bump}, {"seed", material.seed}, {"params", MaterialParamsJson(material.params)}}}};
 }
 
 std::vector<std::string> SynthPresetNames() {
@@ -288,9 +318,10 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
   fs::remove_all(tmp);
   fs::create_directories(tmp / "lights");
 
-  Mesh mesh = MakeShape(o.object, o.detail);
+  Mesh mesh = o.mesh_file.empty() ? MakeShape(o.object, o.detail) : LoadShapeFromFile(o.mesh_file, o.material.texture_size);
   GroundTruthOptions gto = o.material;
   gto.seed = StreamSeed(o.seed, 1, o.material.seed);
+  gto.cover_small_triangles = !o.mesh_file.empty();
   Material gt = MakeGroundTruth(mesh, gto);
   SaveMaterial(gt, (tmp / "gt").string());
     WriteFileAtomic((tmp / "lights" / "lamp.ies").string(), kLampIes);
@@ -316,6 +347,7 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
       recorded_mesh.positions[v] += recorded_mesh.normals[v] * g(rng) * o.geometry_noise_mm * 1e-3;
     recorded_mesh.ComputeNormals();
   }
+  if (!o.mesh_uvs) recorded_mesh.texcoords.clear(), recorded_mesh.face_uvs.clear();  // as a scan comes
   SaveObj(recorded_mesh, (tmp / "mesh.obj").string());
   recorded.ground_truth = {{"material", "gt"},
                            {"material_id", "gt/material_id.png"},

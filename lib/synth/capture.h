@@ -14,6 +14,8 @@ namespace svbrdf {
 
 struct SynthOptions {
   std::string object = "sphere";  // sphere | torus | blob | cube
+  std::string mesh_file;          // a mesh file (OBJ/PLY, e.g. a scan) instead of `object`
+  bool mesh_uvs = true;           // false: the capture's mesh.obj has no texture coordinates
   int detail = 96;                // mesh segments around
   GroundTruthOptions material;
   int num_images = 16;

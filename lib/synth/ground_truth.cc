@@ -4,6 +4,8 @@
 #include <limits>
 
 #include "atlas/atlas.h"
+#include "brdf/fresnel.h"
+#include "brdf/metals.h"
 #include "core/error.h"
 #include "core/rng.h"
 
@@ -13,6 +15,8 @@ void GroundTruthOptions::Check() const {
   if (num_materials < 1 || num_materials > 8) throw Error(Msg("ground truth: num_materials must be 1..8, got ", num_materials));
   if (!models.empty() && int(models.size()) != num_materials)
     throw Error(Msg("ground truth: models lists ", models.size(), " labels for ", num_materials, " materials"));
+  if (!params.empty() && int(params.size()) != num_materials)
+    throw Error(Msg("ground truth: params lists ", params.size(), " entries for ", num_materials, " materials"));
   if (texture_size < 8 || texture_size > 8192) throw Error(Msg("ground truth: texture_size must be 8..8192, got ", texture_size));
   if (!(blend > 0)) throw Error("ground truth: blend must be > 0");
   if (variation < 0 || variation >= 1) throw Error("ground truth: variation must be in [0, 1)");
@@ -30,6 +34,38 @@ void SetParam(BasisMaterial* b, const std::string& name, double value) {
     valid += (i ? ", " : "") + params[i].name;
   }
   throw Error(Msg("model ", b->spec.Label(), " has no parameter '", name, "' (valid: ", valid, ")"));
+}
+
+void SetMetal(BasisMaterial* b, const std::string& metal) {
+  const brdf::MetalConstants* m = brdf::FindMetal(metal);
+  if (!m) {
+    std::string known;
+    for (const auto& k : brdf::PublishedMetals()) known += (known.empty() ? "" : ", ") + std::string(k.name);
+    throw Error(Msg("unknown metal '", metal, "' (known: ", known, ")"));
+  }
+  if (b->spec.family != Family::kConductor)
+    throw Error(Msg("metal '", metal, "' needs a conductor model, not ", b->spec.Label()));
+  const char* channel[3] = {"_r", "_g", "_b"};
+  for (int c = 0; c < 3; ++c) {
+    if (b->spec.fresnel == FresnelMode::kExact) {
+      SetParam(b, std::string("eta") + channel[c], m->eta[c]);
+      SetParam(b, std::string("kappa") + channel[c], m->kappa[c]);
+      continue;
+    }
+    SetParam(b, std::string("f0") + channel[c], brdf::ConductorF0(m->eta[c], m->kappa[c]));
+    if (b->spec.fresnel == FresnelMode::kF82Tint)
+      SetParam(b, std::string("f82_tint") + channel[c], brdf::ConductorF82Tint(m->eta[c], m->kappa[c]));
+  }
+}
+
+void ApplyParams(BasisMaterial* b, const MaterialParams& p) {
+  if (!p.metal.empty()) SetMetal(b, p.metal);
+  for (const auto& [name, value] : p.values) SetParam(b, name, value);
+  const auto infos = b->spec.Params();
+  for (size_t i = 0; i < infos.size(); ++i)
+    if (!(b->params[i] >= infos[i].lower && b->params[i] <= infos[i].upper))
+      throw Error(Msg("material ", b->name, " (", b->spec.Label(), "): ", infos[i].name, " = ", b->params[i],
+                      " is outside its range [", infos[i].lower, ", ", infos[i].upper, "]"));
 }
 
 double GetParam(const BasisMaterial& b, const std::string& name) {
@@ -75,7 +111,7 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
   b.name = Msg("m", i);
   b.spec = ModelSpec::FromLabel(label.empty() ? e.label : label);
   b.params = b.spec.InitialParams();
-  SetRgb(&b, "rd", e.diffuse);
+  if (b.spec.family != Family::kConductor) SetRgb(&b, "rd", e.diffuse);
   switch (b.spec.family) {
     case Family::kLambert:
       break;
@@ -106,6 +142,14 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
         SetParam(&b, p + "n", n);
       }
       break;
+    case Family::kConductor:  // a metal has no diffuse colour: gold, whatever the entry
+      SetMetal(&b, "gold");
+      SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.2);
+      break;
+    case Family::kCoated:
+      SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.15);
+      SetParam(&b, "ior", 1.5);
+      break;
   }
   return b;
 }
@@ -115,10 +159,12 @@ Material MakeGroundTruth(const Mesh& mesh, const GroundTruthOptions& options) {
   Material m;
   m.mesh = mesh;
   m.width = m.height = options.texture_size;
-  for (int k = 0; k < options.num_materials; ++k)
+  for (int k = 0; k < options.num_materials; ++k) {
     m.basis.push_back(LibraryMaterial(k, options.models.empty() ? "" : options.models[k]));
+    if (!options.params.empty()) ApplyParams(&m.basis.back(), options.params[k]);
+  }
 
-  const Atlas atlas = BuildAtlas(mesh, m.width, m.height, 2);
+  const Atlas atlas = BuildAtlas(mesh, m.width, m.height, 2, options.cover_small_triangles);
   if (atlas.texels.empty()) throw Error("ground truth: the mesh's UVs cover no texel");
 
   // Well-spread region seeds: farthest-point sampling over texel positions,

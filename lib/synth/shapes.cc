@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 
+#include "atlas/charts.h"
 #include "core/error.h"
 
 namespace svbrdf {
@@ -171,6 +172,29 @@ Mesh MakeShape(const std::string& name, int detail) {
   if (name == "blob") return MakeBlob(0.5, 0.12, seg / 2, seg);
   if (name == "cube") return MakeBevelledCube(0.4, 0.1, std::max(4, seg / 6));
   throw Error(Msg("unknown object '", name, "'; expected sphere, torus, blob or cube"));
+}
+
+Mesh LoadShapeFromFile(const std::string& path, int texture_size) {
+  Mesh m = LoadMesh(path);
+  Vec3 lo = m.positions[0], hi = m.positions[0];
+  for (const Vec3& p : m.positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const Vec3 centre = 0.5 * (lo + hi);
+  double radius = 0;
+  for (const Vec3& p : m.positions) radius = std::max(radius, (p - centre).norm());
+  if (!(radius > 0)) throw Error(Msg(path, ": the mesh has no extent"));
+  for (Vec3& p : m.positions) p = (p - centre) * (0.5 / radius);
+  m.ComputeNormals();
+  if (!m.HasUVs()) {
+    double area = 0;
+    for (const Vec3i& f : m.faces)
+      area += 0.5 * (m.positions[f[1]] - m.positions[f[0]]).cross(m.positions[f[2]] - m.positions[f[0]]).norm();
+    ChartAtlasOptions co;
+    co.max_resolution = texture_size;
+    co.texel_size = std::sqrt(area / (0.5 * texture_size * texture_size));
+    ChartAtlasInfo info;
+    m = MakeChartAtlasUVs(m, co, &info);
+  }
+  return m;
 }
 
 }  // namespace svbrdf

@@ -16,4 +16,11 @@ Mesh MakeBevelledCube(double half_size, double bevel, int cells);               
 // suited to `detail` (number of segments around); throws Error for unknown names.
 Mesh MakeShape(const std::string& name, int detail);
 
+// Loads a mesh file (OBJ/PLY, e.g. a scan), centres its bounding box at the
+// origin and scales it to a bounding sphere of radius 0.5 m (the size of the
+// procedural shapes). A mesh without texture coordinates gets a chart atlas
+// (atlas/charts.h) filling about half of a `texture_size`^2 texture, so that
+// the ground truth can be painted on it.
+Mesh LoadShapeFromFile(const std::string& path, int texture_size);
+
 }  // namespace svbrdf

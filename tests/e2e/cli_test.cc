@@ -82,4 +82,20 @@ TEST(Cli, EverySubcommandHasHelp) {
   }
 }
 
+TEST(Cli, ExportHelpAndBadInputLeaveNoFolder) {
+  const Result h = RunCli("export --help");
+  EXPECT_EQ(h.code, 0);
+  EXPECT_NE(h.output.find("Example"), std::string::npos) << h.output;
+  const std::string dir = Scratch("export");
+  const Result r = RunCli("export " + dir + "/nope --format gltf --out " + dir + "/out");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(dir + "/nope"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir + "/out"));
+  const Result f = RunCli("export " + dir + " --format obj --out " + dir + "/out");
+  EXPECT_NE(f.code, 0);
+  EXPECT_NE(f.output.find("obj"), std::string::npos) << f.output;
+  for (const auto& e : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << e.path();
+  fs::remove_all(dir);
+}
+
 }  // namespace

@@ -1,0 +1,231 @@
+#include "cluster/clustering.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/rng.h"
+
+namespace svbrdf {
+
+Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const ReconstructOptions& o)
+    : s_(s), o_(o), nt_(s.num_texels) {
+  // Whole photos are held out: held-out error then measures what relighting
+  // needs (new views and lights); per-sample hold-out leaks through
+  // neighbouring texels seen in the same photo.
+  int num_images = 0;
+  for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
+  std::vector<std::pair<double, int>> order;
+  for (int im = 0; im < num_images; ++im) order.emplace_back(HashUniform(o.seed, uint64_t(im), 0x401d), im);
+  std::sort(order.begin(), order.end());
+  std::vector<char> held_image(num_images, 0);
+  const int num_held = std::max(1, int(std::lround(o.holdout_fraction * num_images)));
+  for (int j = 0; j < num_held && num_images > 1; ++j) held_image[order[j].second] = 1;
+  holdout_.resize(s.size());
+  train_count_.assign(nt_, 0);
+  for (int t = 0; t < nt_; ++t)
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      holdout_[i] = held_image[s.image[i]];
+      train_count_[t] += !holdout_[i];
+    }
+  // 8-neighbours in the atlas, for spatially pooled assignment and mixing.
+  neighbours_.resize(nt_);
+  for (int t = 0; t < nt_ && t < int(atlas.texels.size()); ++t) {
+    const Texel& tx = atlas.texels[t];
+    const int d[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+    for (const auto& dd : d) {
+      const int x = tx.x + dd[0], y = tx.y + dd[1];
+      if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
+      const int u = atlas.At(x, y);
+      if (u >= 0 && u < nt_) neighbours_[t].push_back(u);
+    }
+  }
+  usable_.resize(nt_);
+  for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_samples;
+  if (std::count(usable_.begin(), usable_.end(), true) == 0)
+    throw Error(Msg("reconstruct: no texel has ", o.min_samples, " or more training samples; more photos or a coarser --texture-size are needed"));
+  assign_.assign(nt_, 0);
+}
+
+std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
+  std::vector<int64_t> ids;
+  for (int t = 0; t < nt_; ++t) {
+    if (!usable_[t] || (k >= 0 && assign_[t] != k)) continue;
+    for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i)
+      if (bool(holdout_[i]) == heldout) ids.push_back(i);
+  }
+  return ids;
+}
+
+void Clustering::SetBasis(int k, const BasisMaterial& b) {
+  if (k == K()) {
+    basis_.push_back(b);
+    pred_.emplace_back();
+  } else {
+    basis_[k] = b;
+  }
+  pred_[k] = Predict(b);
+}
+
+void Clustering::RemoveBasis(int k) {
+  basis_.erase(basis_.begin() + k);
+  pred_.erase(pred_.begin() + k);
+  for (int& a : assign_) a = a == k ? 0 : (a > k ? a - 1 : a);
+}
+
+// Cluster fits are robust by default: texels that the assignment got wrong
+// (their samples missed the highlight that tells them apart) must not pull
+// the basis material. A least-squares fit first (so that true highlights
+// are explained, not discarded as outliers), then a Cauchy refit from it
+// with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
+FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples,
+                          int threads) const {
+  const std::vector<int64_t> ids = Ids(k, false);
+  FitOptions fo = o_.fit;
+  if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
+  if (threads >= 0) fo.threads = threads;
+  fo.robust_scale = std::max(0.0, o_.robust_scale);
+  FitResult ls = FitModel(spec, s_, ids, fo, init);
+  if (o_.robust_scale >= 0 || ids.empty()) return ls;
+  std::vector<float> r;
+  const size_t step = std::max<size_t>(1, ids.size() / 20000);
+  for (size_t j = 0; j < ids.size(); j += step) {
+    const Rgb p = PredictSample(spec, ls.params.data(), s_, ids[j]);
+    for (int c = 0; c < 3; ++c) r.push_back(std::abs(s_.y[c][ids[j]] - float(p[c])));
+  }
+  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+  fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
+  fo.multi_start = false;
+  FitResult robust = FitModel(spec, s_, ids, fo, ls.params);
+  return robust.converged || !ls.converged ? robust : ls;
+}
+
+double Clustering::ScaledError(int t, int k, bool heldout) const {
+  double yp = 0, pp = 0, yy = 0;
+  const std::vector<float>& p = pred_[k];
+  for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
+    if (bool(holdout_[i]) != heldout) continue;
+    for (int c = 0; c < 3; ++c) {
+      const double y = s_.y[c][i], q = p[3 * i + c];
+      yp += y * q, pp += q * q, yy += y * y;
+    }
+  }
+  const double a = pp > 0 ? BrightnessScale(yp, pp) : 0.0;
+  return std::max(0.0, yy - 2 * a * yp + a * a * pp);
+}
+
+// Errors are pooled over the texel and half-weighted 8-neighbours: materials
+// are spatially coherent, and a texel's own few samples often miss the
+// highlight that tells its material apart.
+long Clustering::Assign() {
+  std::vector<int> next(assign_);
+  const int K = this->K();
+  std::vector<double> err(size_t(nt_) * K, 0.0);
+  // Texels too sparse for fits are still assigned (their neighbours help),
+  // so that their weights mix the right materials.
+  ParallelFor(nt_, o_.threads, [&](long t) {
+    if (train_count_[t] == 0) return;
+    for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, false);
+  }, 512);
+  ParallelFor(nt_, o_.threads, [&](long t) {
+    if (train_count_[t] == 0) return;
+    double best = 1e300;
+    for (int k = 0; k < K; ++k) {
+      double e = err[size_t(t) * K + k];
+      for (int u : neighbours_[t])
+        if (train_count_[u] > 0) e += 0.5 * err[size_t(u) * K + k];
+      if (e < best) best = e, next[t] = k;
+    }
+  }, 512);
+  long changed = 0;
+  changed_.assign(K, 0);
+  for (int t = 0; t < nt_; ++t)
+    if (next[t] != assign_[t]) {
+      ++changed;
+      if (assign_[t] >= 0 && assign_[t] < K) changed_[assign_[t]] = 1;
+      changed_[next[t]] = 1;
+    }
+  assign_ = next;
+  return changed;
+}
+
+double Clustering::TrainRmse(int k) const {
+  int64_t n = 0;
+  double sse = 0;
+  for (int t = 0; t < nt_; ++t)
+    if (usable_[t] && (k < 0 || assign_[t] == k)) {
+      sse += ScaledError(t, assign_[t], false);
+      n += 3 * train_count_[t];
+    }
+  return n ? std::sqrt(sse / n) : 0.0;
+}
+
+double Clustering::ClusterSse(int k) const {
+  double sse = 0;
+  for (int t = 0; t < nt_; ++t)
+    if (usable_[t] && assign_[t] == k) sse += ScaledError(t, k, false);
+  return sse;
+}
+
+std::vector<float> Clustering::Predict(const BasisMaterial& b) const {
+  std::vector<float> p(3 * size_t(s_.size()));
+  ParallelFor(s_.size(), o_.threads, [&](long i) {
+    const Vec3 wi(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
+    const Rgb f = EvalModelD(b.spec, b.params.data(), wi, wo) * s_.geom[i];
+    for (int c = 0; c < 3; ++c) p[3 * i + c] = float(f[c]);
+  }, 4096);
+  return p;
+}
+
+uint64_t PartitionKey(const std::vector<int>& assign) {
+  std::vector<int> renumber;
+  uint64_t h = 1469598103934665603ull;  // FNV-1a, 64 bit
+  for (int a : assign) {
+    int c = -1;
+    if (a >= 0) {
+      if (a >= int(renumber.size())) renumber.resize(a + 1, -1);
+      if (renumber[a] < 0) renumber[a] = int(std::count_if(renumber.begin(), renumber.end(), [](int r) { return r >= 0; }));
+      c = renumber[a];
+    }
+    h = (h ^ uint64_t(uint32_t(c))) * 1099511628211ull;
+  }
+  return h;
+}
+
+BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
+  BasisMaterial b;
+  b.name = Msg("m", index);
+  b.spec = spec;
+  b.params = r.params;
+  return b;
+}
+
+// Assign and refit until stable or `iterations` done; drops empty clusters.
+void Refine(Clustering& cl, int iterations) {
+  for (int it = 0; it < iterations; ++it) {
+    const long changed = cl.Assign();
+    for (int k = cl.K() - 1; k >= 0; --k) {
+      const bool empty = std::none_of(cl.assign().begin(), cl.assign().end(), [&](int a) { return a == k; }) ||
+                         cl.Ids(k, false).empty();
+      if (empty && cl.K() > 1) cl.RemoveBasis(k);
+    }
+    if (changed == 0 && it > 0) break;
+    for (int k = 0; k < cl.K(); ++k) {
+      if (it > 0 && !cl.MembershipChanged(k)) continue;
+      BasisMaterial b = cl.basis()[k];
+      b.params = cl.Fit(b.spec, k, b.params).params;
+      cl.SetBasis(k, b);
+    }
+  }
+}
+
+StageLog::StageLog(bool on) : on_(on), t0_(std::chrono::steady_clock::now()) {}
+
+void StageLog::operator()(const std::string& s) const {
+  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  if (on_) std::fprintf(stderr, "  [%6.1f s] %s\n", t, s.c_str());
+}
+
+}  // namespace svbrdf

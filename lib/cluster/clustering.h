@@ -1,0 +1,116 @@
+// The working state of the progressive clustering (internal to lib/cluster):
+// samples split into training and held-out sets, per-texel sample counts and
+// neighbours, the current basis materials with their predictions for every
+// sample, and the texel-to-cluster assignment. The stages (split search,
+// model selection, weights, confidence) each live in their own file and
+// work on this state.
+#pragma once
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "cluster/reconstruct.h"
+#include "fit/fit.h"
+#include "gather/samples.h"
+#include "io/material.h"
+
+namespace svbrdf {
+
+inline double Sq(double x) { return x * x; }
+// Least-squares brightness of a texel relative to a basis material (sums of
+// y*p and p*p), limited to [0.5, 2]: darker or brighter, not another material.
+inline double BrightnessScale(double yp, double pp) { return std::clamp(yp / pp, 0.5, 2.0); }
+
+class Clustering {
+ public:
+  Clustering(const SampleSet& s, const Atlas& atlas, const ReconstructOptions& o);
+
+  int K() const { return static_cast<int>(basis_.size()); }
+  int num_texels() const { return nt_; }
+  std::vector<BasisMaterial>& basis() { return basis_; }
+  const std::vector<BasisMaterial>& basis() const { return basis_; }
+  std::vector<int>& assign() { return assign_; }
+  const std::vector<int>& assign() const { return assign_; }
+  const std::vector<char>& usable() const { return usable_; }
+  const std::vector<char>& holdout() const { return holdout_; }
+  const std::vector<int>& train_count() const { return train_count_; }
+  const std::vector<std::vector<int>>& neighbours() const { return neighbours_; }
+  const SampleSet& samples() const { return s_; }
+  const ReconstructOptions& options() const { return o_; }
+
+  // Sample ids of usable texels in cluster k (all clusters when k < 0), train or held-out.
+  std::vector<int64_t> Ids(int k, bool heldout) const;
+
+  // Sets basis k (k == K() appends one) and its predictions.
+  void SetBasis(int k, const BasisMaterial& b);
+  void RemoveBasis(int k);
+
+  // Robust fit of `spec` to cluster k's training samples (see clustering.cc).
+  FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0,
+                int threads = -1) const;
+
+  // Squared error of texel t's samples under basis k with the best brightness
+  // scale a in [0.5, 2] shared by the channels (a texel may be darker or
+  // brighter than its material, but not of another colour).
+  double ScaledError(int t, int k, bool heldout) const;
+
+  // Whether cluster k gained or lost texels in the last Assign().
+  bool MembershipChanged(int k) const { return k < int(changed_.size()) && changed_[k]; }
+  // Assigns every usable texel to its best basis; returns how many changed.
+  long Assign();
+
+  // Mixing weights (weights.cc). Per-texel NNLS mixing weights from one
+  // subset of samples (train, or all), error on another (held-out, or all).
+  // Returns the summed squared error and its sample-channel count; `weights`
+  // (texel-major [t][k][c]) when non-null.
+  double MixtureError(bool per_channel, bool fit_on_all, bool eval_on_all, int64_t* count,
+                      std::vector<float>* weights, std::vector<float>* residual,
+                      std::vector<double>* per_texel = nullptr,
+                      const std::vector<float>* smooth_from = nullptr) const;
+  double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr, bool smooth = false) const;
+  // Final weights on all samples: a first pass, then the smoothness pass.
+  void FinalWeights(bool per_channel, std::vector<float>* weights, std::vector<float>* residual) const;
+
+  double TrainRmse(int k = -1) const;
+  double ClusterSse(int k) const;
+
+ private:
+  std::vector<float> Predict(const BasisMaterial& b) const;
+
+  const SampleSet& s_;
+  const ReconstructOptions& o_;
+  const int nt_;
+  std::vector<char> holdout_;
+  std::vector<int> train_count_;
+  std::vector<char> usable_;
+  std::vector<int> assign_;
+  std::vector<std::vector<int>> neighbours_;
+  std::vector<char> changed_;
+  std::vector<BasisMaterial> basis_;
+  std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
+};
+
+// Canonical key of a texel partition: the same for any numbering of the
+// clusters (labels renumbered in order of first appearance, then hashed).
+uint64_t PartitionKey(const std::vector<int>& assign);
+
+BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index);
+
+// Assign and refit until stable or `iterations` done; drops empty clusters.
+void Refine(Clustering& cl, int iterations);
+
+// Progress lines with the time since the estimate started.
+class StageLog {
+ public:
+  explicit StageLog(bool on);
+  void operator()(const std::string& s) const;
+
+ private:
+  bool on_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+}  // namespace svbrdf

@@ -1,0 +1,16 @@
+// Step 5 of EstimateSvbrdf (reconstruct.h): per-texel confidence from the
+// count and spread of its samples, and weights of texels without confident
+// ones filled in from their neighbours; the label map from the weights.
+#pragma once
+#include "atlas/atlas.h"
+#include "cluster/reconstruct.h"
+#include "gather/samples.h"
+
+namespace svbrdf {
+
+// Needs est->weights (K = est->basis size or `num_basis`); sets num_texels,
+// confidence and label, and rewrites the weights of unconfident texels.
+void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o, int num_basis,
+                       SvbrdfEstimate* est);
+
+}  // namespace svbrdf

@@ -1,0 +1,57 @@
+#include <algorithm>
+#include <string>
+
+#include "cluster/clustering.h"
+#include "cluster/confidence.h"
+#include "cluster/model_selection.h"
+#include "cluster/quality.h"
+#include "cluster/split.h"
+#include "core/error.h"
+
+namespace svbrdf {
+
+SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o) {
+  o.Check();
+  if (samples.size() == 0) throw Error("reconstruct: no samples");
+  Clustering cl(samples, atlas, o);
+  SvbrdfEstimate est;
+  const ModelSpec cluster_spec = ModelSpec::FromLabel(o.force_model.empty() ? o.cluster_model : o.force_model);
+  const StageLog log(o.progress);
+
+  // 1. One cluster.
+  cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
+  const double heldout = cl.HeldoutRmse();
+  est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
+  log(Msg("1 cluster: held-out RMSE ", heldout));
+
+  // 2. Progressive splitting with backtracking (split_search.cc).
+  SearchClusters(cl, &est, log);
+
+  // 3. Model economy per cluster (model_selection.cc).
+  SelectModels(cl, &est, log);
+  Refine(cl, std::max(1, o.refine_iterations - 1));
+
+  // 4. Mixing weights: scalar or per channel, by held-out error.
+  est.heldout_rmse_scalar = cl.HeldoutRmse(false, nullptr, true);
+  est.heldout_rmse_channel = cl.HeldoutRmse(true, nullptr, true);
+  est.per_channel_weights = est.heldout_rmse_channel < est.heldout_rmse_scalar;
+  est.heldout_rmse = std::min(est.heldout_rmse_scalar, est.heldout_rmse_channel);
+  log(Msg("weights: ", est.per_channel_weights ? "per channel" : "scalar", " (held-out RMSE scalar ",
+          est.heldout_rmse_scalar, ", per channel ", est.heldout_rmse_channel, ")"));
+  cl.FinalWeights(est.per_channel_weights, &est.weights, &est.residual);
+
+  // 6. What the model explains poorly (quality.cc).
+  est.cluster_quality = MeasureClusterQuality(cl, est.per_channel_weights);
+  for (const ClusterQuality& q : est.cluster_quality)
+    log(Msg("cluster ", q.cluster, " (", cl.basis()[q.cluster].spec.Label(), ", ", q.texels, " texels): held-out RMSE ",
+            q.heldout_rmse, " = ", 100 * q.heldout_rmse / std::max(1e-300, q.signal_rms), " % of its signal",
+            q.poorly_explained ? ": POORLY EXPLAINED by every candidate model" : ""));
+
+  // 5. Confidence and neighbour fill (confidence.cc).
+  ConfidenceAndFill(samples, atlas, o, cl.K(), &est);
+  for (int k = 0; k < cl.K(); ++k) cl.basis()[k].name = Msg("m", k);
+  est.basis = cl.basis();
+  return est;
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,73 @@
+#include "cluster/model_selection.h"
+
+#include <cmath>
+#include <string>
+
+#include "cluster/stats.h"
+#include "core/error.h"
+#include "core/parallel.h"
+
+namespace svbrdf {
+
+void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
+  const ReconstructOptions& o = cl.options();
+  const SampleSet& samples = cl.samples();
+  SvbrdfEstimate& est = *est_out;
+  // 3. Model economy per cluster.
+  std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
+  for (int k = 0; k < cl.K(); ++k) {
+    const std::vector<int64_t> hold = cl.Ids(k, true);
+    struct Tried {
+      ModelSpec spec;
+      FitResult fit;
+      double rmse;
+      std::vector<double> errors;  // per held-out sample
+    };
+    // Candidates are independent small fits: one per thread pays better than
+    // threads inside each Ceres solve.
+    std::vector<Tried> tried(candidates.size());
+    ParallelFor(long(candidates.size()), o.threads, [&](long j) {
+      const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
+      const FitResult r = cl.Fit(spec, k, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{},
+                                 o.selection_samples, 1);
+      std::vector<double> e = SampleErrors(spec, r.params, samples, hold);
+      tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
+    });
+    // The fewest parameters unless the best model is better by `parsimony`
+    // of the signal's RMS (a difference that shows in a picture) and by
+    // `model_min_z` standard errors (paired over held-out samples).
+    double signal = 0;
+    for (int64_t i : hold) signal += Sq(samples.y[0][i]) + Sq(samples.y[1][i]) + Sq(samples.y[2][i]);
+    signal = std::sqrt(signal / std::max<double>(1.0, 3.0 * hold.size()));
+    size_t best = 0;
+    for (size_t j = 1; j < tried.size(); ++j)
+      if (tried[j].rmse < tried[best].rmse) best = j;
+    // The same trimming as TrimmedRmse for the paired test: samples among the
+    // worst 2 % under the best model (misassigned texels) are left out.
+    std::vector<char> keep(hold.size(), 1);
+    if (!hold.empty()) {
+      std::vector<double> sorted = tried[best].errors;
+      const size_t cut = sorted.size() - 1 - sorted.size() / 50;
+      std::nth_element(sorted.begin(), sorted.begin() + cut, sorted.end());
+      for (size_t i = 0; i < hold.size(); ++i) keep[i] = tried[best].errors[i] <= sorted[cut];
+    }
+    auto trimmed = [&](const std::vector<double>& e) {
+      std::vector<double> out;
+      for (size_t i = 0; i < e.size(); ++i)
+        if (keep[i]) out.push_back(e[i]);
+      return out;
+    };
+    int chosen = int(best);
+    for (size_t j = 0; j < tried.size(); ++j) {
+      const bool clearly_worse = tried[j].rmse - tried[best].rmse > o.parsimony * signal &&
+                                 PairedZ(trimmed(tried[j].errors), trimmed(tried[best].errors)) >= o.model_min_z;
+      if (!clearly_worse && tried[j].spec.NumParams() < tried[chosen].spec.NumParams()) chosen = int(j);
+    }
+    for (size_t j = 0; j < tried.size(); ++j)
+      est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen});
+    log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse, ")"));
+    cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
+  }
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,23 @@
+#include "cluster/reconstruct.h"
+
+#include "core/error.h"
+
+namespace svbrdf {
+
+void ReconstructOptions::Check() const {
+  fit.Check();
+  if (max_clusters < 1 || max_clusters > 16) throw Error(Msg("reconstruct: --max-clusters must be in [1, 16], got ", max_clusters));
+  if (force_clusters < 0 || force_clusters > 16) throw Error(Msg("reconstruct: --clusters must be in [0, 16], got ", force_clusters));
+  if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) throw Error("reconstruct: holdout fraction must be in (0, 0.9)");
+  if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
+  if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");
+  if (!(parsimony >= 0)) throw Error("reconstruct: parsimony must be >= 0");
+  if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
+  if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");
+  if (candidate_models.empty() && force_model.empty()) throw Error("reconstruct: no candidate models");
+  for (const auto& m : candidate_models) ModelSpec::FromLabel(m);  // throws for unknown labels
+  if (!force_model.empty()) ModelSpec::FromLabel(force_model);
+  ModelSpec::FromLabel(cluster_model);
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,123 @@
+#include "cluster/split.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "cluster/nnls.h"
+#include "core/parallel.h"
+
+namespace svbrdf {
+
+std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
+  const SampleSet& s = cl.samples();
+  const int nt = cl.num_texels();
+  BasisMaterial probe[2];
+  for (int q = 0; q < 2; ++q) {
+    probe[q].spec = ModelSpec::FromLabel("cosine_lobe");
+    probe[q].params = {0, 0, 0, 1, 1, 1, q == 0 ? 8.0 : 64.0};  // rd, rs, exponent
+  }
+  std::vector<int> texels;
+  for (int t = 0; t < nt; ++t)
+    if (cl.usable()[t] && cl.assign()[t] == k) texels.push_back(t);
+  const size_t T = texels.size();
+  constexpr int kFeatures = 5;
+  using VecF = Eigen::Matrix<double, kFeatures, 1>;
+  using MatF = Eigen::Matrix<double, kFeatures, kFeatures>;
+  Eigen::MatrixXd X(T, kFeatures);
+  ParallelFor(long(T), cl.options().threads, [&](long j) {
+    const int t = texels[j];
+    MatF AtA = MatF::Zero();
+    VecF Atb = VecF::Zero();
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      if (cl.holdout()[i]) continue;
+      const Vec3 wi(s.wi[0][i], s.wi[1][i], s.wi[2][i]), wo(s.wo[0][i], s.wo[1][i], s.wo[2][i]);
+      const double p0 = EvalModelD(probe[0].spec, probe[0].params.data(), wi, wo)[0] * s.geom[i];
+      const double p1 = EvalModelD(probe[1].spec, probe[1].params.data(), wi, wo)[0] * s.geom[i];
+      for (int c = 0; c < 3; ++c) {
+        VecF row = VecF::Zero();
+        row[c] = s.geom[i] / kPi;
+        row[3] = p0;
+        row[4] = p1;
+        AtA += row * row.transpose();
+        Atb += row * double(s.y[c][i]);
+      }
+    }
+    AtA.diagonal().array() += 1e-9 * (1.0 + AtA.diagonal().maxCoeff());
+    X.row(j) = NnlsNormal(AtA, Atb).transpose();
+  }, 256);
+  std::vector<int> side(nt, 0);
+  if (T < 4) return side;
+  if (variant == 1) X = Eigen::MatrixXd(X.leftCols(3));
+  if (variant == 2) X = Eigen::MatrixXd(X.rightCols(2));
+  const int F = static_cast<int>(X.cols());
+  // Whiten per feature, principal component, split at the mean.
+  const Eigen::RowVectorXd mean = X.colwise().mean();
+  Eigen::MatrixXd Z = X.rowwise() - mean;
+  for (int q = 0; q < F; ++q) {
+    const double sd = std::sqrt(Z.col(q).squaredNorm() / T);
+    Z.col(q) /= sd > 1e-12 ? sd : 1.0;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Z.transpose() * Z);
+  const Eigen::VectorXd v = eig.eigenvectors().col(F - 1);
+  std::vector<int> g(T);
+  for (size_t j = 0; j < T; ++j) g[j] = Z.row(j).dot(v) >= 0 ? 1 : 0;
+  // 2-means refinement in the whitened feature space.
+  for (int it = 0; it < 20; ++it) {
+    Eigen::RowVectorXd c[2] = {Eigen::RowVectorXd::Zero(F), Eigen::RowVectorXd::Zero(F)};
+    double n[2] = {0, 0};
+    for (size_t j = 0; j < T; ++j) c[g[j]] += Z.row(j), n[g[j]] += 1;
+    if (n[0] == 0 || n[1] == 0) break;
+    c[0] /= n[0];
+    c[1] /= n[1];
+    bool changed = false;
+    for (size_t j = 0; j < T; ++j) {
+      const int gj = (Z.row(j) - c[1]).squaredNorm() < (Z.row(j) - c[0]).squaredNorm() ? 1 : 0;
+      changed |= gj != g[j];
+      g[j] = gj;
+    }
+    if (!changed) break;
+  }
+  for (size_t j = 0; j < T; ++j) side[texels[j]] = g[j] ? 1 : -1;
+  return side;
+}
+
+
+std::vector<int> GeometrySplitSides(const Clustering& cl, int k) {
+  const SampleSet& s = cl.samples();
+  std::vector<int> texels;
+  for (int t = 0; t < cl.num_texels(); ++t)
+    if (cl.usable()[t] && cl.assign()[t] == k) texels.push_back(t);
+  const size_t T = texels.size();
+  std::vector<int> side(cl.num_texels(), 0);
+  if (T < 4) return side;
+  // Per texel: the mean elevations (local z) of its training light, view and
+  // half vectors: what part of the BRDF's domain the texel was seen in.
+  Eigen::MatrixXd Z(T, 3);
+  for (size_t j = 0; j < T; ++j) {
+    const int t = texels[j];
+    Eigen::Vector3d m = Eigen::Vector3d::Zero();
+    int n = 0;
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      if (cl.holdout()[i]) continue;
+      const Eigen::Vector3d wi(s.wi[0][i], s.wi[1][i], s.wi[2][i]), wo(s.wo[0][i], s.wo[1][i], s.wo[2][i]);
+      m += Eigen::Vector3d(wi.z(), wo.z(), (wi + wo).normalized().z());
+      ++n;
+    }
+    Z.row(j) = (m / std::max(1, n)).transpose();
+  }
+  Z = Z.rowwise() - Z.colwise().mean();
+  for (int q = 0; q < 3; ++q) {
+    const double sd = std::sqrt(Z.col(q).squaredNorm() / T);
+    Z.col(q) /= sd > 1e-12 ? sd : 1.0;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Z.transpose() * Z);
+  const Eigen::VectorXd v = eig.eigenvectors().col(2);
+  std::vector<std::pair<double, int>> proj(T);
+  for (size_t j = 0; j < T; ++j) proj[j] = {Z.row(j).dot(v), texels[j]};
+  std::sort(proj.begin(), proj.end());
+  for (size_t j = 0; j < T; ++j) side[proj[j].second] = j < T / 2 ? 1 : -1;
+  return side;
+}
+
+}  // namespace svbrdf

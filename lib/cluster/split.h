@@ -1,0 +1,38 @@
+// Split step of the progressive clustering: which texels of a cluster go to
+// which half (split.cc), and the search over splits with backtracking and the
+// held-out stopping rule (split_search.cc).
+#pragma once
+#include <vector>
+
+#include "cluster/clustering.h"
+
+namespace svbrdf {
+
+// Lensch's split of cluster k along the direction of largest parameter
+// variance (see reconstruct.h, step 2b). Per texel, the parameters that the
+// texel's own few samples do determine are estimated linearly: diffuse
+// albedo per channel and the amplitudes of two fixed normalised cosine
+// lobes (Lewis, exponents 8 and 64: a broad and a sharp highlight probe),
+// by NNLS. The probes do not depend on the cluster's current fit, which may
+// be poor while the cluster still mixes materials. The features are
+// whitened, split at the mean along their principal component, and the
+// split is refined by 2-means.
+// Returns +1/-1 for the texels of cluster k, 0 for the others.
+// `variant` selects the features: 0 = all five, 1 = diffuse colour only,
+// 2 = gloss amplitudes only (tried in turn when a split does not help).
+std::vector<int> SplitSides(const Clustering& cl, int k, int variant);
+
+// The control split for the honest stopping rule: cluster k's texels halved
+// by where in the BRDF's domain they were seen (mean elevations of their
+// light, view and half vectors), a direction that says nothing about the
+// material. Within one material such a split gains only what model error
+// lets fits specialised to part of the domain gain; a split into materials
+// must gain clearly more. Returns +1/-1 for the texels of cluster k, 0 else.
+std::vector<int> GeometrySplitSides(const Clustering& cl, int k);
+
+// Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
+// current state until the stopping rule or the target count; leaves `cl` in
+// the chosen state and appends to `est->history`.
+void SearchClusters(Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
+
+}  // namespace svbrdf

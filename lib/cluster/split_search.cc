@@ -1,0 +1,173 @@
+#include <algorithm>
+#include <string>
+#include <unordered_set>
+
+#include "cluster/split.h"
+#include "cluster/stats.h"
+#include "core/error.h"
+
+namespace svbrdf {
+
+namespace {
+
+constexpr int kMaxFailedSplits = 4;  // splits in a row without improvement before stopping
+
+// Moves the side < 0 texels of cluster k to a new cluster and fits both
+// halves from the parent's parameters.
+void SplitCluster(Clustering& cl, int k, const std::vector<int>& side) {
+  const int knew = cl.K();
+  for (size_t t = 0; t < side.size(); ++t)
+    if (side[t] < 0) cl.assign()[t] = knew;
+    else if (side[t] == 0 && cl.assign()[t] == k) cl.assign()[t] = -1;  // re-assigned below
+  const BasisMaterial parent = cl.basis()[k];
+  cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params), knew));
+  cl.SetBasis(k, MakeBasis(parent.spec, cl.Fit(parent.spec, k, parent.params), k));
+  for (int& a : cl.assign()) if (a < 0) a = k;
+}
+
+}  // namespace
+
+void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
+  const ReconstructOptions& o = cl.options();
+  SvbrdfEstimate& est = *est_out;
+  const double heldout = est.history.back().heldout_rmse;
+  struct State {
+    std::vector<BasisMaterial> basis;
+    std::vector<int> assign;
+    double heldout;
+    std::vector<double> texel_sse;  // held-out squared error per texel
+  };
+  std::vector<double> texel_sse;
+  cl.HeldoutRmse(false, &texel_sse);
+  std::vector<State> states{{cl.basis(), cl.assign(), heldout, texel_sse}};
+  size_t best_state = 0;
+  // Every state is evaluated once: a split that leads back to a partition
+  // already evaluated (two feature sets giving the same halves, a half emptied
+  // by refinement) counts as a failed split without a second evaluation, and
+  // a split proposal already tried from the same state is not fitted again.
+  // Cycles between states (4 <-> 5 clusters) are impossible by construction.
+  std::unordered_set<uint64_t> evaluated{est.history.back().partition}, proposed;
+  auto restore = [&cl](const State& st) {
+    while (cl.K() > int(st.basis.size())) cl.RemoveBasis(cl.K() - 1);
+    for (size_t j = 0; j < st.basis.size(); ++j) cl.SetBasis(int(j), st.basis[j]);
+    cl.assign() = st.assign;
+  };
+  const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
+  constexpr int kSplitVariants = 3;
+  std::vector<int> variants_tried;  // per cluster, since the last accepted split
+  double best = heldout;
+  int fails = 0;
+  bool lookahead = false;  // the current state is one unaccepted split past the best
+  int root_cluster = 0;    // the cluster of the best state whose split is being looked past
+  while (cl.K() < target) {
+    variants_tried.resize(cl.K(), 0);
+    int k = -1;
+    double worst = -1;
+    for (int j = 0; j < cl.K(); ++j) {
+      const double e = cl.ClusterSse(j);
+      if (variants_tried[j] < kSplitVariants && e > worst) worst = e, k = j;
+    }
+    if (k < 0) break;
+    const std::vector<int> side = SplitSides(cl, k, variants_tried[k]);
+    const long plus = std::count(side.begin(), side.end(), 1), minus = std::count(side.begin(), side.end(), -1);
+    // A basis material must own a meaningful part of the surface: smaller
+    // groups are usually blends at region borders, which the mixing weights
+    // already represent.
+    const long usable_texels = std::count(cl.usable().begin(), cl.usable().end(), char(1));
+    if (std::min(plus, minus) < std::max<long>(2, long(o.min_cluster_fraction * usable_texels))) {
+      variants_tried[k]++;
+      continue;
+    }
+    auto undo = [&] {
+      restore(states[best_state]);
+      variants_tried.resize(cl.K(), 0);
+      variants_tried[lookahead ? root_cluster : k]++;
+      lookahead = false;
+      return ++fails >= kMaxFailedSplits;
+    };
+    std::vector<int> proposal(cl.assign());
+    for (size_t t = 0; t < side.size(); ++t)
+      if (side[t] < 0) proposal[t] = cl.K();
+    if (!proposed.insert(PartitionKey(proposal) ^ (PartitionKey(cl.assign()) * 0x9e3779b97f4a7c15ull)).second) {
+      ++est.states_revisited;
+      log(Msg("split of cluster ", k, " (features ", variants_tried[k], ") already tried from this state: skipped"));
+      if (undo()) break;
+      continue;
+    }
+    const State parent{cl.basis(), cl.assign(), 0.0, {}};
+    SplitCluster(cl, k, side);
+    // The control: the same cluster halved along a direction that says
+    // nothing about the material (GeometrySplitSides), scored before
+    // refinement as the candidate is here.
+    std::vector<double> candidate_sse, control_sse;
+    const bool honest_test = o.force_clusters == 0 && o.control_split;
+    if (honest_test) cl.HeldoutRmse(false, &candidate_sse);
+    Refine(cl, o.refine_iterations);
+    const uint64_t key = PartitionKey(cl.assign());
+    if (!evaluated.insert(key).second) {
+      ++est.states_revisited;
+      log(Msg("split of cluster ", k, " led back to an evaluated state (", cl.K(), " clusters): skipped"));
+      if (undo()) break;
+      continue;
+    }
+    const double h = cl.HeldoutRmse(false, &texel_sse);
+    const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
+    // Paired tests over texels: on the squared errors (dominated by the
+    // texels with the largest errors) or on the bounded per-texel changes
+    // (how consistently texels improve; with few photos the first is noisy).
+    const double z = std::max(PairedZ(states[best_state].texel_sse, texel_sse),
+                              BoundedPairedZ(states[best_state].texel_sse, texel_sse));
+    bool passes = drop >= o.min_improvement && z >= o.min_z;
+    std::string control_note;
+    if (passes && honest_test) {
+      // Honest stopping: when the residuals are dominated by model error
+      // (no candidate describes the region), any split lets the halves'
+      // fits specialise to the directions their texels saw, and lowers the
+      // error; a split into materials must beat the control split clearly.
+      const State candidate{cl.basis(), cl.assign(), h, texel_sse};
+      restore(parent);
+      SplitCluster(cl, k, GeometrySplitSides(cl, k));
+      cl.HeldoutRmse(false, &control_sse);
+      restore(candidate);
+      double sc = 0, sn = 0;
+      for (size_t t = 0; t < control_sse.size(); ++t) sc += candidate_sse[t], sn += control_sse[t];
+      const double gain = 1.0 - sc / std::max(1e-300, sn);
+      const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
+      passes = gain >= o.min_improvement && zc >= o.min_z;
+      control_note = Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc, passes ? "" : ": model error, not materials");
+    }
+    est.history.push_back({cl.K(), cl.TrainRmse(), h, false, key});
+    std::string sizes;
+    for (int j = 0; j < cl.K(); ++j)
+      sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j));
+    log(Msg(cl.K(), " clusters (", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
+            " % below the best so far, z = ", z, control_note, ")"));
+    if (o.force_clusters > 0 || passes) {
+      states.push_back({cl.basis(), cl.assign(), h, texel_sse});
+      best = h;
+      best_state = states.size() - 1;
+      fails = 0;
+      lookahead = false;
+      std::fill(variants_tried.begin(), variants_tried.end(), 0);
+    } else if (!lookahead && cl.K() < target) {
+      // Look one split ahead before giving up: splitting 3 materials into 2
+      // clusters can be worse than 1 cluster (a colour mixed into the wrong
+      // basis), while the next split separates them.
+      lookahead = true;
+      root_cluster = k;
+      variants_tried.assign(cl.K(), 0);
+    } else {
+      // Backtrack: undo the split(s) and try another feature set or the
+      // next-worst cluster; stop after `kMaxFailedSplits` failures in a row.
+      if (undo()) break;
+    }
+  }
+  // The last state that improved significantly on its predecessor (or the forced count).
+  const size_t chosen = best_state;
+  restore(states[chosen]);
+  const uint64_t chosen_key = PartitionKey(cl.assign());
+  for (auto& h : est.history) h.accepted = h.partition == chosen_key;
+  log(Msg("chosen: ", cl.K(), " basis materials"));
+}
+
+}  // namespace svbrdf

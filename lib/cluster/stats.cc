@@ -1,0 +1,48 @@
+#include "cluster/stats.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fit/fit.h"
+
+namespace svbrdf {
+
+namespace {
+inline double Sq(double x) { return x * x; }
+}  // namespace
+
+std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
+                                 const std::vector<int64_t>& ids) {
+  std::vector<double> e(ids.size());
+  for (size_t j = 0; j < ids.size(); ++j) {
+    const Rgb p = PredictSample(spec, params.data(), s, ids[j]);
+    e[j] = Sq(p[0] - s.y[0][ids[j]]) + Sq(p[1] - s.y[1][ids[j]]) + Sq(p[2] - s.y[2][ids[j]]);
+  }
+  return e;
+}
+
+double TrimmedRmse(std::vector<double> e) {
+  if (e.empty()) return 0.0;
+  const size_t keep = std::max<size_t>(1, e.size() - e.size() / 50);
+  std::nth_element(e.begin(), e.begin() + (keep - 1), e.end());
+  double sum = 0;
+  for (size_t j = 0; j < keep; ++j) sum += e[j];
+  return std::sqrt(sum / (3.0 * keep));
+}
+
+double PairedZ(const std::vector<double>& a, const std::vector<double>& b) {
+  double sum = 0, sum2 = 0;
+  for (size_t t = 0; t < a.size(); ++t) sum += a[t] - b[t], sum2 += (a[t] - b[t]) * (a[t] - b[t]);
+  const double n = double(a.size()), var = std::max(0.0, sum2 / n - (sum / n) * (sum / n));
+  return sum / std::max(1e-300, std::sqrt(var * n));
+}
+
+double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> d, zero;
+  for (size_t t = 0; t < a.size(); ++t)
+    if (a[t] + b[t] > 0) d.push_back((a[t] - b[t]) / (a[t] + b[t]));
+  zero.assign(d.size(), 0.0);
+  return PairedZ(d, zero);
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,29 @@
+// Small statistics shared by the clustering stages: per-sample errors of a
+// model, a trimmed RMSE and a paired z statistic.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "brdf/model.h"
+#include "gather/samples.h"
+
+namespace svbrdf {
+
+// Per-sample squared residuals (summed over channels) of a model on samples `ids`.
+std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
+                                 const std::vector<int64_t>& ids);
+
+// RMS residual per channel without the largest 2 % of per-sample errors:
+// held-out samples of texels that the assignment got wrong must not decide
+// which model describes the cluster.
+double TrimmedRmse(std::vector<double> e);
+
+// Paired z statistic: how many standard errors the mean of `b` lies below `a`.
+double PairedZ(const std::vector<double>& a, const std::vector<double>& b);
+
+// As PairedZ on the bounded per-texel changes (a_t - b_t) / (a_t + b_t) of
+// texels with a_t + b_t > 0: how consistently texels improve, not dominated
+// by the few texels with the largest errors (highlights).
+double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b);
+
+}  // namespace svbrdf

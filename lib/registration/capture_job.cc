@@ -1,0 +1,364 @@
+#include "registration/capture_job.h"
+
+#include <filesystem>
+#include <map>
+#include <unistd.h>
+
+#include "calib/board.h"
+#include "calib/colmap_text.h"
+#include "calib/hdr.h"
+#include "calib/intrinsics.h"
+#include "calib/light_probe.h"
+#include "calib/pnp.h"
+#include "calib/segment.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "io/scene.h"
+#include "registration/board_bundle.h"
+#include "registration/silhouette.h"
+
+namespace svbrdf {
+
+namespace fs = std::filesystem;
+
+void CaptureJob::Check() const {
+  if (photos_dir.empty() || out_dir.empty()) throw Error("capture: photos folder and --out are required");
+  if (!fs::is_directory(photos_dir)) throw Error(Msg("capture: ", photos_dir, " is not a folder"));
+  if (silhouette_iterations < 1) throw Error("capture: silhouette iterations must be >= 1");
+}
+
+namespace {
+
+template <class T>
+T Field(const nlohmann::json& j, const char* key, const std::string& context) {
+  if (!j.is_object() || !j.contains(key)) throw Error(Msg(context, ": missing field '", key, "'"));
+  try {
+    return j.at(key).get<T>();
+  } catch (const std::exception& e) {
+    throw Error(Msg(context, ": field '", key, "': ", e.what()));
+  }
+}
+
+Rigid3 PoseFromJson(const nlohmann::json& j, const std::string& context) {
+  const auto q = Field<std::vector<double>>(j, "q", context), t = Field<std::vector<double>>(j, "t", context);
+  if (q.size() != 4 || t.size() != 3) throw Error(Msg(context, ": expected q (4 numbers) and t (3 numbers)"));
+  Rigid3 p;
+  p.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+  p.translation = Vec3(t[0], t[1], t[2]);
+  return p;
+}
+
+nlohmann::json PoseJson(const Rigid3& p) {
+  const auto& q = p.rotation;
+  return {{"q", {q.w(), q.x(), q.y(), q.z()}}, {"t", {p.translation.x(), p.translation.y(), p.translation.z()}}};
+}
+
+BoardSpec BoardFromJson(const nlohmann::json& j, const std::string& ctx) {
+  BoardSpec b;
+  b.pattern = BoardPatternFromName(Field<std::string>(j, "pattern", ctx));
+  b.cols = Field<int>(j, "cols", ctx);
+  b.rows = Field<int>(j, "rows", ctx);
+  b.square = Field<double>(j, "square", ctx);
+  if (j.contains("marker")) b.marker = Field<double>(j, "marker", ctx);
+  if (j.contains("dictionary")) b.dictionary = Field<std::string>(j, "dictionary", ctx);
+  b.Check();
+  return b;
+}
+
+struct Photo {
+  std::vector<std::string> files;
+  std::vector<double> exposures;
+  int light = 0;
+  std::string mask;
+  HdrResult hdr;
+  bool posed = false;
+  std::string why;
+  Rigid3 cam_from_world;
+  double rms_px = 0;
+};
+
+}  // namespace
+
+nlohmann::json RunCapture(const CaptureJob& job) {
+  job.Check();
+  StageTimer timer;
+  const std::string desc_path = job.description.empty() ? (fs::path(job.photos_dir) / "capture.json").string()
+                                                        : job.description;
+  const nlohmann::json desc = ReadJsonFile(desc_path);
+  const std::string ctx = desc_path;
+  if (Field<std::string>(desc, "format", ctx) != "svbrdf-capture-description/1")
+    throw Error(Msg(ctx, ": format must be \"svbrdf-capture-description/1\""));
+  auto path = [&](const std::string& rel) { return (fs::path(job.photos_dir) / rel).string(); };
+  const nlohmann::json& board_j = Field<nlohmann::json>(desc, "board", ctx);
+  const BoardSpec board = BoardFromJson(board_j, ctx + ": board");
+  const double white = Field<double>(board_j, "white_albedo", ctx + ": board");
+  const double black = Field<double>(board_j, "black_albedo", ctx + ": board");
+  if (Field<std::string>(desc, "images_color_space", ctx) != "linear")
+    throw Error(Msg(ctx, ": images_color_space: only \"linear\" brackets are supported by capture (develop RAW linearly)"));
+
+  std::vector<Photo> photos;
+  const auto photos_j = Field<nlohmann::json>(desc, "photos", ctx);
+  if (!photos_j.is_array() || photos_j.empty()) throw Error(Msg(ctx, ": photos must be a non-empty array"));
+  for (size_t i = 0; i < photos_j.size(); ++i) {
+    const std::string pc = Msg(ctx, ": photos[", i, "]");
+    Photo p;
+    p.files = Field<std::vector<std::string>>(photos_j[i], "files", pc);
+    p.exposures = Field<std::vector<double>>(photos_j[i], "exposures", pc);
+    p.light = Field<int>(photos_j[i], "light", pc);
+    if (photos_j[i].contains("mask")) p.mask = Field<std::string>(photos_j[i], "mask", pc);
+    if (p.files.empty() || p.files.size() != p.exposures.size())
+      throw Error(Msg(pc, ": files and exposures must be non-empty and of equal length"));
+    photos.push_back(p);
+  }
+  nlohmann::json report = {{"description", desc_path}};
+
+  // 1. HDR: merge brackets (linear), saturation where every bracket clips.
+  timer.Start("hdr");
+  {
+    Progress progress("merge brackets", long(photos.size()), job.progress);
+    ParallelFor(long(photos.size()), job.threads, [&](long i) {
+      std::vector<Image> shots;
+      for (const auto& f : photos[i].files) shots.push_back(ReadImage(path(f)));
+      photos[i].hdr = MergeLinear(shots, photos[i].exposures, HdrOptions{});
+      progress.Tick();
+    });
+  }
+  timer.Stop();
+
+  // 2. Intrinsics and board poses. Detection on the longest exposure.
+  timer.Start("calibrate + poses");
+  std::vector<std::string> detect_paths;
+  if (desc.contains("calibration_photos"))
+    for (const auto& f : Field<std::vector<std::string>>(desc, "calibration_photos", ctx)) detect_paths.push_back(path(f));
+  const size_t first_photo = detect_paths.size();
+  for (const Photo& p : photos) {
+    const size_t longest = std::max_element(p.exposures.begin(), p.exposures.end()) - p.exposures.begin();
+    detect_paths.push_back(path(p.files[longest]));
+  }
+  const nlohmann::json& cam_j = Field<nlohmann::json>(desc, "camera", ctx);
+  CalibrateOptions co;
+  co.board = board;
+  co.progress = job.progress;
+  if (cam_j.contains("model")) co.model = CameraModelFromName(Field<std::string>(cam_j, "model", ctx + ": camera"), ctx);
+  const bool calibrate = cam_j.value("calibrate", false);
+  CalibrationResult cal;
+  if (calibrate) {
+    cal = CalibrateIntrinsics(detect_paths, co);
+  } else {
+    // Known camera: detections only, poses by PnP against it.
+    const auto cams = ReadColmapCameras(path(Field<std::string>(cam_j, "cameras_txt", ctx + ": camera")));
+    cal.camera = cams[0];
+    for (const auto& p : detect_paths) {
+      ViewCalibration v;
+      v.name = fs::path(p).filename().string();
+      const BoardDetection d = DetectBoard(ReadImage(p), board);
+      v.used = d.found && int(d.points.size()) >= co.min_points;
+      v.why = d.found ? (v.used ? "" : "too few board points") : d.why;
+      v.ids = d.ids;
+      v.points = d.points;
+      cal.views.push_back(v);
+    }
+  }
+  std::vector<Rigid3> poses;
+  std::vector<BoardObservations> obs;
+  std::vector<int> view_index;
+  for (size_t k = 0; k < cal.views.size(); ++k) {
+    if (!cal.views[k].used) continue;
+    BoardDetection d;
+    d.ids = cal.views[k].ids;
+    d.points = cal.views[k].points;
+    poses.push_back(SolveBoardPose(cal.camera, board, d, cal.views[k].name));
+    obs.push_back({d.ids, d.points});
+    view_index.push_back(int(k));
+  }
+  BundleOptions bo;
+  bo.refine_intrinsics = calibrate;
+  const BundleResult ba = AdjustBoardBundle(cal.camera, poses, obs, board.ObjectPoints(), bo);
+  const Camera camera = ba.camera;
+  nlohmann::json views_j = nlohmann::json::array();
+  for (size_t k = 0; k < cal.views.size(); ++k) {
+    nlohmann::json v = {{"image", cal.views[k].name}, {"used", cal.views[k].used}};
+    if (!cal.views[k].used) v["rejected_because"] = cal.views[k].why;
+    views_j.push_back(v);
+  }
+  for (size_t n = 0; n < view_index.size(); ++n) {
+    views_j[view_index[n]]["rms_px"] = ba.view_rms_px[n];
+    if (view_index[n] < int(first_photo)) continue;
+    Photo& p = photos[view_index[n] - first_photo];
+    p.posed = true;
+    p.cam_from_world = ba.cam_from_board[n];
+    p.rms_px = ba.view_rms_px[n];
+  }
+  for (size_t i = 0; i < photos.size(); ++i)
+    if (!photos[i].posed) photos[i].why = cal.views[first_photo + i].why;
+  report["camera"] = {{"model", CameraModelName(camera.model)}, {"params", camera.params},
+                      {"calibrated_here", calibrate}, {"calibration_rms_px", cal.rms}};
+  report["bundle"] = {{"rms_px_before", ba.initial_rms_px}, {"rms_px", ba.rms_px}, {"views", views_j}};
+  timer.Stop();
+  std::vector<size_t> posed;
+  for (size_t i = 0; i < photos.size(); ++i)
+    if (photos[i].posed) posed.push_back(i);
+  if (posed.size() < 3) throw Error(Msg("capture: only ", posed.size(), " photos show the board; need 3"));
+
+  // 3. Mesh registration by silhouettes.
+  timer.Start("registration");
+  const nlohmann::json& mesh_j = Field<nlohmann::json>(desc, "mesh", ctx);
+  const std::string mesh_file = path(Field<std::string>(mesh_j, "file", ctx + ": mesh"));
+  Mesh mesh = LoadMesh(mesh_file);
+  const Rigid3 rough = PoseFromJson(Field<nlohmann::json>(mesh_j, "world_from_mesh", ctx + ": mesh"), ctx + ": mesh.world_from_mesh");
+  const std::string mask_mode = desc.value("masks", std::string("given"));
+  std::vector<SilhouetteView> sviews;
+  for (size_t i : posed) {
+    SilhouetteView v{camera, photos[i].cam_from_world, Image()};
+    if (mask_mode == "given") {
+      if (photos[i].mask.empty()) throw Error(Msg(ctx, ": photos[", i, "]: masks are \"given\" but the photo has no mask"));
+      v.mask = ReadImage(path(photos[i].mask));
+    } else if (mask_mode == "grabcut") {
+      v.mask = GrabCutMask(photos[i].hdr.radiance, RenderSilhouette(mesh, rough, camera, photos[i].cam_from_world));
+    } else {
+      throw Error(Msg(ctx, ": masks: expected \"given\" or \"grabcut\", got \"", mask_mode, "\""));
+    }
+    sviews.push_back(std::move(v));
+  }
+  SilhouetteOptions so;
+  so.outer_iterations = job.silhouette_iterations;
+  so.threads = job.threads;
+  so.progress = job.progress;
+  const SilhouetteResult reg = AlignSilhouettes(mesh, rough, sviews, so);
+  nlohmann::json iou = nlohmann::json::array();
+  for (size_t k = 0; k < posed.size(); ++k)
+    iou.push_back({{"photo", posed[k]}, {"before", reg.iou_before[k]}, {"after", reg.iou_after[k]}});
+  report["registration"] = {{"world_from_mesh", PoseJson(reg.world_from_object)},
+                            {"contour_distance_px", reg.mean_distance_px}, {"mask_iou", iou}};
+  timer.Stop();
+
+  // 4. Lights: mirror-sphere highlights -> position; board albedo -> intensity.
+  timer.Start("lights");
+  const nlohmann::json& ms = Field<nlohmann::json>(desc, "mirror_spheres", ctx);
+  const double radius = Field<double>(ms, "radius", ctx + ": mirror_spheres");
+  std::vector<MirrorSphere> spheres;
+  for (const auto& c : Field<std::vector<std::vector<double>>>(ms, "centres", ctx + ": mirror_spheres")) {
+    if (c.size() != 3) throw Error(Msg(ctx, ": mirror_spheres.centres: expected [x, y, z]"));
+    spheres.push_back({Vec3(c[0], c[1], c[2]), radius});
+  }
+  const BoardTexture tex = DrawBoard(board, 32);
+  std::vector<Light> lights;
+  nlohmann::json lights_report = nlohmann::json::array();
+  for (const auto& lj : Field<nlohmann::json>(desc, "lights", ctx)) {
+    Light light;
+    light.id = Field<int>(lj, "id", ctx + ": lights[]");
+    if (Field<std::string>(lj, "type", ctx + ": lights[]") != "point")
+      throw Error(Msg(ctx, ": light ", light.id, ": only \"point\" lamps are calibrated by capture"));
+    std::vector<Ray3> rays;
+    for (size_t i : posed) {
+      if (photos[i].light != light.id) continue;
+      for (const MirrorSphere& s : spheres) {
+        Vec2 px;
+        Ray3 ray;
+        if (FindHighlight(photos[i].hdr.radiance, camera, photos[i].cam_from_world, s, &px) &&
+            ReflectedRay(camera, photos[i].cam_from_world, s, px, &ray))
+          rays.push_back(ray);
+      }
+    }
+    if (rays.size() < 2) throw Error(Msg("capture: light ", light.id, ": only ", rays.size(), " mirror-sphere highlights found; need 2"));
+    double ray_rms = 0;
+    light.position = NearestPointToRays(rays, &ray_rms);
+    // Intensity: board points on white paper (texture value 1 around them), in photos of this light.
+    std::vector<DiffuseSample> samples;
+    const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
+    for (size_t k = 0; k < posed.size(); ++k) {
+      const size_t i = posed[k];
+      if (photos[i].light != light.id) continue;
+      const Image& img = photos[i].hdr.radiance;
+      for (int ty = 2; ty < tex.image.height - 2; ty += 3)
+        for (int tx = 2; tx < tex.image.width - 2; tx += 3) {
+          bool all_white = true;
+          for (int dy = -2; dy <= 2 && all_white; ++dy)
+            for (int dx = -2; dx <= 2; ++dx) all_white &= tex.image.at(tx + dx, ty + dy, 0) > 0.99f;
+          if (!all_white) continue;
+          const Vec2 b = lin_inv * (Vec2(tx + 0.5, ty + 0.5) - tex.texture_from_board.col(2));
+          const Vec3 X(b.x(), b.y(), 0.0);
+          const Vec3 xc = photos[i].cam_from_world * X;
+          if (xc.z() <= 0) continue;
+          const Vec2 px = camera.Project(xc);
+          const int x = int(px.x()), y = int(px.y());
+          if (x < 1 || y < 1 || x >= img.width - 1 || y >= img.height - 1) continue;
+          if (reg.iou_after.size() && sviews[k].mask.at(x, y, 0) > 0.5f) continue;  // the object hides it
+          bool near_sphere = false;
+          for (const MirrorSphere& s : spheres) near_sphere |= (X - s.centre).norm() < 1.5 * s.radius;
+          if (near_sphere || photos[i].hdr.saturated.at(x, y, 0) > 0) continue;
+          // Normal of the board towards the camera side.
+          const Vec3 eye = photos[i].cam_from_world.CentreInWorld();
+          const Vec3 n = eye.z() > 0 ? Vec3(0, 0, 1) : Vec3(0, 0, -1);
+          double v = 0;
+          for (int c = 0; c < 3; ++c) v += img.at(x, y, c) / 3;
+          samples.push_back({v, 1.0, white, X, n});
+        }
+    }
+    const double I = IntensityFromDiffuse(samples, light.position);
+    light.type = LightType::kPoint;
+    light.intensity = Rgb::Constant(I);
+    lights.push_back(light);
+    lights_report.push_back({{"id", light.id}, {"position", {light.position.x(), light.position.y(), light.position.z()}},
+                             {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms}, {"intensity", I},
+                             {"reference_samples", samples.size()}});
+  }
+  (void)black;
+  report["lights"] = lights_report;
+  timer.Stop();
+
+  // 5. Write the capture.
+  timer.Start("write");
+  const fs::path final_dir(job.out_dir);
+  const fs::path tmp = final_dir.string() + Msg(".tmp-", getpid());
+  fs::remove_all(tmp);
+  for (const char* d : {"images", "masks", "saturation", "report"}) fs::create_directories(tmp / d);
+  Mesh world_mesh = mesh;
+  for (Vec3& p : world_mesh.positions) p = reg.world_from_object * p;
+  world_mesh.ComputeNormals();
+  SaveObj(world_mesh, (tmp / "mesh.obj").string());
+  Scene scene;
+  scene.dir = tmp.string();
+  scene.mesh = "mesh.obj";
+  scene.cameras = {camera};
+  scene.cameras[0].id = 1;
+  scene.lights = lights;
+  for (size_t k = 0; k < posed.size(); ++k) {
+    const size_t i = posed[k];
+    char name[32];
+    std::snprintf(name, sizeof name, "%04zu", i);
+    ImageEntry e;
+    e.file = Msg("images/", name, ".exr");
+    e.mask = Msg("masks/", name, ".png");
+    e.camera = 1;
+    e.light = photos[i].light;
+    e.cam_from_world = photos[i].cam_from_world;
+    e.exposure = 1.0;  // merged radiance is value / exposure
+    WriteImage((tmp / e.file).string(), photos[i].hdr.radiance, PixelFormat::kFloat);
+    // Saturated pixels carry no information: they leave the mask.
+    Image mask = sviews[k].mask;
+    for (size_t p = 0; p < mask.pixels.size(); ++p)
+      mask.pixels[p] = (mask.pixels[p] > 0.5f && photos[i].hdr.saturated.pixels[p] == 0) ? 1.0f : 0.0f;
+    WriteImage((tmp / e.mask).string(), mask, PixelFormat::kUInt8);
+    WriteImage((tmp / "saturation" / (std::string(name) + ".png")).string(), photos[i].hdr.saturated, PixelFormat::kUInt8);
+    scene.images.push_back(e);
+  }
+  nlohmann::json dropped = nlohmann::json::array();
+  for (size_t i = 0; i < photos.size(); ++i)
+    if (!photos[i].posed) dropped.push_back({{"photo", i}, {"why", photos[i].why}});
+  report["dropped_photos"] = dropped;
+  SaveScene(scene, (tmp / "scene.json").string());
+  timer.Stop();
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& s : timer.stages()) stages[s.name] = s.seconds;
+  report["seconds"] = stages;
+  WriteFileAtomic((tmp / "report" / "capture_report.json").string(), report.dump(2) + "\n");
+  fs::remove_all(final_dir);
+  if (!final_dir.parent_path().empty()) fs::create_directories(final_dir.parent_path());
+  fs::rename(tmp, final_dir);
+  if (job.progress) std::fprintf(stderr, "%s", timer.Report().c_str());
+  return report;
+}
+
+}  // namespace svbrdf

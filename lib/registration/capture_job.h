@@ -1,0 +1,41 @@
+// `svbrdf capture`: from a folder of photographs and a small description of
+// what the user knows to a contract capture (scene.json) that `reconstruct`
+// reads. Stages: intrinsics (calib), HDR merge of brackets with saturation
+// masks, board detection + PnP + bundle adjustment (poses), silhouette
+// registration of the scanned mesh, lamp positions from mirror spheres and
+// intensities from the board's known albedo. Each stage's errors go into
+// OUT/report/capture_report.json.
+//
+// Description file (JSON, "format": "svbrdf-capture-description/1"), paths
+// relative to the photo folder:
+//   board: {pattern, cols, rows, square, marker, dictionary, white_albedo, black_albedo}
+//   camera: {"calibrate": true, "model": "OPENCV"} or {"cameras_txt": "calib/cameras.txt"}
+//   calibration_photos: [files]  board-only photos for the intrinsics (optional)
+//   images_color_space: "linear" (16-bit linear / EXR brackets)
+//   mesh: {file, world_from_mesh: {q, t}}  the scanned mesh and its rough
+//         placement in the board frame (world = board frame, metres)
+//   masks: "given" (each photo's "mask") or "grabcut" (seeded by the projected mesh)
+//   mirror_spheres: {radius, centres: [[x, y, z], ...]}  in the board frame
+//   lights: [{id, type: "point"}]
+//   photos: [{files: [brackets], exposures: [relative], light: id, mask: file}]
+#pragma once
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace svbrdf {
+
+struct CaptureJob {
+  std::string photos_dir;
+  std::string description;  // default: photos_dir/capture.json
+  std::string out_dir;
+  int silhouette_iterations = 10;
+  int threads = 0;
+  bool progress = true;
+  void Check() const;
+};
+
+// Writes out_dir/{scene.json, mesh.obj, images/, masks/, saturation/, report/}
+// (under a temporary name, renamed when complete); returns the report.
+nlohmann::json RunCapture(const CaptureJob& job);
+
+}  // namespace svbrdf

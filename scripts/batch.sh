@@ -1,0 +1,168 @@
+#!/usr/bin/env bash
+# Reconstructs a folder of captures: one capture per task of a Slurm job array
+# (sbatch --array), or, without Slurm (or with --local), the same task script
+# run for each capture in turn on this machine. Every task writes
+#   OUT/<capture>/material/      the material folder (svbrdf reconstruct)
+#   OUT/<capture>/time.txt       /usr/bin/time -v of the reconstruction
+#   OUT/<capture>/evaluate.txt   held-out PSNR when the capture has heldout/scene.json
+# and a final step collects OUT/summary.md and OUT/summary.json (a table: clusters,
+# held-out PSNR, wall and CPU seconds, peak memory per capture).
+#
+# Usage: scripts/batch.sh CAPTURES_DIR OUT_DIR [--local] [--slurm] [--partition P]
+#                         [--time-limit MIN] [--max-parallel N] [-- reconstruct options...]
+#   CAPTURES_DIR: every sub-folder holding a scene.json is one capture.
+#   Default: Slurm when `sbatch` is on PATH, else local.
+# Example: scripts/batch.sh captures/ results/ -- --time-budget 30
+set -euo pipefail
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+SVBRDF="${SVBRDF:-$ROOT/build/apps/svbrdf}"
+
+usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+
+# --- one task: reconstruct (and evaluate) capture number $1 of the list ----
+run_task() {
+  local out="$1" index="$2"
+  shift 2
+  local scene name dir
+  scene="$(sed -n "$((index + 1))p" "$out/captures.txt")"
+  [ -n "$scene" ] || { echo "batch: no capture number $index in $out/captures.txt" >&2; exit 2; }
+  name="$(basename "$(dirname "$scene")")"
+  dir="$out/$name"
+  mkdir -p "$dir"
+  echo "[task $index] $name: reconstruct $scene" >&2
+  local rc=0
+  /usr/bin/time -v -o "$dir/time.txt" "$SVBRDF" reconstruct "$scene" --out "$dir/material" "$@" \
+    > "$dir/reconstruct.log" 2>&1 || rc=$?
+  echo "$rc" > "$dir/exit_code"
+  local heldout
+  heldout="$(dirname "$scene")/heldout/scene.json"
+  if [ "$rc" -eq 0 ] && [ -f "$heldout" ]; then
+    "$SVBRDF" relight "$dir/material" "$heldout" --out "$dir/relit" > "$dir/relight.log" 2>&1 &&
+      "$SVBRDF" evaluate "$dir/relit" "$heldout" > "$dir/evaluate.txt" 2>&1 || true
+    rm -rf "$dir/relit"
+  fi
+  echo "[task $index] $name: exit $rc" >&2
+  return "$rc"
+}
+
+# --- summary table of every task's results --------------------------------
+summarize() {
+  /usr/bin/python3 - "$1" <<'EOF'
+import json, os, re, sys
+out = sys.argv[1]
+rows = []
+for line in open(os.path.join(out, "captures.txt")):
+    scene = line.strip()
+    if not scene:
+        continue
+    name = os.path.basename(os.path.dirname(scene))
+    d = os.path.join(out, name)
+    row = {"capture": name, "scene": scene, "exit_code": None}
+    try:
+        row["exit_code"] = int(open(os.path.join(d, "exit_code")).read())
+    except (OSError, ValueError):
+        pass
+    try:
+        t = open(os.path.join(d, "time.txt")).read()
+        g = lambda k: re.search(re.escape(k) + r":\s*(\S+)", t).group(1)
+        wall = g("Elapsed (wall clock) time (h:mm:ss or m:ss)").split(":")
+        row["wall_s"] = sum(float(x) * 60 ** i for i, x in enumerate(reversed(wall)))
+        row["cpu_s"] = float(g("User time (seconds)")) + float(g("System time (seconds)"))
+        row["peak_mb"] = int(g("Maximum resident set size (kbytes)")) / 1024.0
+    except (OSError, AttributeError):
+        pass
+    try:
+        s = json.load(open(os.path.join(d, "material", "report", "summary.json")))
+        row["clusters"] = s.get("clusters")
+        row["texels"] = s.get("texels")
+        row["samples"] = s.get("samples", {}).get("kept")
+        row["time_budget_s"] = s.get("time_budget_s")
+    except (OSError, ValueError):
+        pass
+    try:
+        m = re.search(r"mean PSNR ([\d.]+) dB \(min ([\d.]+)\)", open(os.path.join(d, "evaluate.txt")).read())
+        row["heldout_psnr_db"], row["heldout_psnr_min_db"] = float(m.group(1)), float(m.group(2))
+    except (OSError, AttributeError):
+        pass
+    rows.append(row)
+json.dump(rows, open(os.path.join(out, "summary.json"), "w"), indent=2)
+fmt = lambda v, f: "" if v is None else f % v
+L = ["# Batch reconstruction summary", "",
+     "| capture | exit | clusters | held-out PSNR (dB) | wall (s) | CPU (s) | peak (MB) |",
+     "|---|---:|---:|---:|---:|---:|---:|"]
+for r in rows:
+    L.append("| %s | %s | %s | %s | %s | %s | %s |" % (
+        r["capture"], fmt(r.get("exit_code"), "%d"), fmt(r.get("clusters"), "%d"),
+        fmt(r.get("heldout_psnr_db"), "%.2f"), fmt(r.get("wall_s"), "%.1f"), fmt(r.get("cpu_s"), "%.1f"),
+        fmt(r.get("peak_mb"), "%.0f")))
+done = [r for r in rows if r.get("exit_code") == 0]
+if done:
+    mean = lambda k: sum(r.get(k, 0) or 0 for r in done) / len(done)
+    L += ["", "%d of %d captures done; per capture: mean wall %.1f s, mean CPU %.1f s, mean peak %.0f MB." % (
+        len(done), len(rows), mean("wall_s"), mean("cpu_s"), mean("peak_mb"))]
+open(os.path.join(out, "summary.md"), "w").write("\n".join(L) + "\n")
+print("\n".join(L))
+EOF
+}
+
+# Internal entry points (used by the Slurm job scripts).
+if [ "${1:-}" = "--task" ]; then
+  shift
+  out="$1"; shift
+  run_task "$out" "${SLURM_ARRAY_TASK_ID:?--task needs SLURM_ARRAY_TASK_ID}" "$@"
+  exit $?
+fi
+if [ "${1:-}" = "--summarize" ]; then summarize "$2"; exit 0; fi
+
+[ $# -ge 2 ] || usage 2
+case "$1" in -h|--help) usage 0;; esac
+captures="$(cd "$1" && pwd)"
+mkdir -p "$2"
+out="$(cd "$2" && pwd)"
+shift 2
+mode=auto partition="" time_limit=30 max_parallel=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --local) mode=local; shift;;
+    --slurm) mode=slurm; shift;;
+    --partition) partition="$2"; shift 2;;
+    --time-limit) time_limit="$2"; shift 2;;
+    --max-parallel) max_parallel="$2"; shift 2;;
+    --) shift; break;;
+    -h|--help) usage 0;;
+    *) echo "batch: unknown option $1 (reconstruct options go after --)" >&2; exit 2;;
+  esac
+done
+[ -x "$SVBRDF" ] || { echo "batch: $SVBRDF not built (bash scripts/setup.sh)" >&2; exit 2; }
+
+find "$captures" -mindepth 2 -maxdepth 2 -name scene.json | sort > "$out/captures.txt"
+n=$(wc -l < "$out/captures.txt")
+[ "$n" -gt 0 ] || { echo "batch: no */scene.json under $captures" >&2; exit 2; }
+if [ "$mode" = auto ]; then
+  if command -v sbatch > /dev/null; then mode=slurm; else mode=local; fi
+fi
+echo "batch: $n captures, $mode, results in $out" >&2
+
+if [ "$mode" = slurm ]; then
+  mkdir -p "$out/logs"
+  array="0-$((n - 1))${max_parallel:+%$max_parallel}"
+  extra=()
+  [ -n "$partition" ] && extra+=(--partition "$partition")
+  # One capture per array task: 2 cores, 1 GB (a 75 k-triangle scan peaks
+  # below 500 MB), wall limit in minutes.
+  jobid=$(sbatch --parsable --job-name svbrdf-batch --array "$array" --cpus-per-task 2 --mem 1G \
+    --time "$time_limit" --output "$out/logs/%A_%a.out" "${extra[@]}" \
+    --export "ALL,SVBRDF=$SVBRDF" "$0" --task "$out" --threads 2 "$@")
+  sbatch --parsable --job-name svbrdf-summary --dependency "afterany:${jobid%%;*}" --cpus-per-task 1 \
+    --mem 256M --time 5 --output "$out/logs/summary.out" "${extra[@]}" "$0" --summarize "$out" > /dev/null
+  echo "batch: submitted array job $jobid ($n tasks) and its summary; results in $out/summary.md" >&2
+  exit 0
+fi
+
+# Local: the same task script, one capture after another.
+failed=0
+for ((i = 0; i < n; ++i)); do
+  SLURM_ARRAY_TASK_ID=$i run_task "$out" "$i" "$@" || failed=$((failed + 1))
+done
+summarize "$out"
+[ "$failed" -eq 0 ] || { echo "batch: $failed of $n captures failed" >&2; exit 1; }

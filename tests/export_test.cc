@@ -1,0 +1,304 @@
+// lib/export: the Mitsuba nearest forms (exact where a plugin matches, a
+// least-squares fit elsewhere), the per-texel glTF fit against a direct
+// evaluation, and the structure of both exports (files, XML, glTF buffers).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "atlas/atlas.h"
+#include "core/error.h"
+#include "export/directions.h"
+#include "export/gltf.h"
+#include "export/gltf_brdf.h"
+#include "export/mitsuba.h"
+#include "export/nearest_form.h"
+#include "export/xml.h"
+#include "io/files.h"
+#include "raytrace/sphere_mesh.h"
+
+namespace svbrdf {
+namespace {
+
+namespace fs = std::filesystem;
+
+BasisMaterial Basis(const std::string& label, const std::vector<std::pair<std::string, double>>& params) {
+  BasisMaterial b;
+  b.name = "b";
+  b.spec = ModelSpec::FromLabel(label);
+  b.params = b.spec.InitialParams();
+  const auto info = b.spec.Params();
+  for (const auto& [name, value] : params) {
+    bool found = false;
+    for (size_t i = 0; i < info.size(); ++i)
+      if (info[i].name == name) b.params[i] = value, found = true;
+    EXPECT_TRUE(found) << name;
+  }
+  return b;
+}
+
+const DirectionPairs& Pairs() {
+  static const DirectionPairs d = DirectionPairs::Standard();
+  return d;
+}
+
+TEST(Directions, QuadratureIntegratesTheCosineOverTheHemisphere) {
+  // For each viewing direction, sum weight * cos(theta_i) ~ pi (one unit of
+  // "views" in total since weights are divided by their number).
+  double s = 0;
+  for (size_t j = 0; j < Pairs().size(); ++j) s += Pairs().weight[j] * Pairs().wi[j].z();
+  // Grazing light directions (wi.z < 1e-3) and, for tilted views, half vectors
+  // that reflect below the horizon are excluded; the rest must be ~ pi.
+  EXPECT_NEAR(s, kPi, 0.05 * kPi);
+}
+
+TEST(NearestForm, ExactMappingsHaveZeroError) {
+  const NearestForm l = MapToNearestForm(Basis("lambert", {{"rd_r", 0.2}, {"rd_g", 0.5}, {"rd_b", 0.7}}), Pairs());
+  EXPECT_TRUE(l.exact);
+  EXPECT_FALSE(l.has_lobe);
+  EXPECT_LT(l.error, 1e-12);
+  EXPECT_DOUBLE_EQ(l.rd[1], 0.5);
+  const NearestForm ct = MapToNearestForm(
+      Basis("cook_torrance-ggx-smith", {{"rd_r", 0.1}, {"rs_r", 0.4}, {"roughness", 0.2}, {"ior", 1.6}}), Pairs());
+  EXPECT_TRUE(ct.exact);
+  EXPECT_TRUE(ct.fresnel);
+  EXPECT_EQ(ct.distribution, Distribution::kGGX);
+  EXPECT_DOUBLE_EQ(ct.alpha, 0.2);
+  EXPECT_DOUBLE_EQ(ct.eta, 1.6);
+  EXPECT_LT(ct.error, 1e-12);
+}
+
+TEST(NearestForm, VCavityAndSchlickAreNearWithStatedError) {
+  const NearestForm f = MapToNearestForm(
+      Basis("cook_torrance-beckmann-schlick", {{"rs_r", 0.5}, {"rs_g", 0.5}, {"rs_b", 0.5}, {"roughness", 0.3}}), Pairs());
+  EXPECT_FALSE(f.exact);
+  EXPECT_GT(f.error, 1e-4);  // really different ...
+  EXPECT_LT(f.error, 0.15);  // ... but close
+}
+
+TEST(NearestForm, FitRecoversALobeItCanRepresent) {
+  // A Lewis cosine lobe is not a microfacet lobe, but a Blinn-Phong-like
+  // lobe of exponent n is close to Beckmann with alpha ~ sqrt(2 / (n + 2)).
+  const BasisMaterial b = Basis("cosine_lobe", {{"rd_r", 0.3}, {"rd_g", 0.3}, {"rd_b", 0.3}, {"rs_r", 0.4},
+                                                {"rs_g", 0.4}, {"rs_b", 0.4}, {"exponent", 60}});
+  const NearestForm f = MapToNearestForm(b, Pairs());
+  EXPECT_FALSE(f.exact);
+  EXPECT_TRUE(f.has_lobe);
+  EXPECT_NEAR(f.rd[0], 0.3, 0.06);
+  EXPECT_GT(f.alpha, 0.05);
+  EXPECT_LT(f.alpha, 0.3);
+  EXPECT_LT(f.error, 0.7);  // an R-space lobe is not a microfacet lobe: large but bounded
+  // The fit must beat the form with the lobe removed.
+  NearestForm no_lobe = f;
+  no_lobe.rs = Rgb::Zero();
+  const BasisMaterial nb = no_lobe.AsBasis("x");
+  EXPECT_LT(f.error, RelativeFeatureError(BrdfFeatures(b.spec, b.params, Pairs()), BrdfFeatures(nb.spec, nb.params, Pairs())));
+}
+
+TEST(SpotBeamWidth, UniformConeNeedsNoRampAndCosineLobeDoes) {
+  double err = 1;
+  EXPECT_NEAR(SpotBeamWidth(0.0, 0.5, &err), 0.5, 0.01);
+  EXPECT_LT(err, 1e-2);
+  const double bw = SpotBeamWidth(4.0, 30 * kPi / 180, &err);
+  EXPECT_GT(bw, 0.0);
+  EXPECT_LT(bw, 30 * kPi / 180);
+  EXPECT_GT(err, 0.01);
+  EXPECT_LT(err, 0.5);
+}
+
+TEST(GltfBrdf, ReciprocalAndEnergyBounded) {
+  const Vec3 wi = Vec3(0.3, 0.1, 0.9).normalized(), wo = Vec3(-0.5, 0.2, 0.7).normalized();
+  for (double m : {0.0, 0.5, 1.0})
+    for (double r : {0.3, 0.6, 1.0}) {
+      const Rgb a = GltfBrdf(Rgb(0.8, 0.5, 0.2), m, r, wi, wo), b = GltfBrdf(Rgb(0.8, 0.5, 0.2), m, r, wo, wi);
+      EXPECT_NEAR((a - b).abs().maxCoeff(), 0.0, 1e-12);
+      // Albedo at normal view for a white base colour is at most 1.
+      double albedo = 0;
+      const int n = 200;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < 2 * n; ++j) {
+          const double th = 0.5 * kPi * (i + 0.5) / n, ph = kPi * (j + 0.5) / n;
+          const Vec3 w(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+          albedo += GltfBrdf(Rgb::Ones(), m, r, w, Vec3::UnitZ())[0] * w.z() * std::sin(th) * (0.5 * kPi / n) * (kPi / n);
+        }
+      EXPECT_LE(albedo, 1.0 + 1e-2) << "m " << m << " r " << r;
+      EXPECT_GT(albedo, 0.25) << "m " << m << " r " << r;  // single scattering loses energy when rough
+    }
+}
+
+// A small material on a sphere with a trivial atlas, two basis materials
+// with different per-texel weights.
+Material TwoMaterialSphere(int res = 32) {
+  Material m;
+  m.mesh = MakeTrivialAtlasUVs(MakeUvSphere(6, 8), res);
+  m.mesh.ComputeNormals();
+  m.width = m.height = res;
+  m.basis.push_back(Basis("lambert", {{"rd_r", 0.6}, {"rd_g", 0.4}, {"rd_b", 0.2}}));
+  m.basis.back().name = "m0";
+  m.basis.push_back(Basis("cook_torrance-beckmann-smith", {{"rd_r", 0.05}, {"rd_g", 0.05}, {"rd_b", 0.3},
+                                                          {"rs_r", 0.5}, {"rs_g", 0.5}, {"rs_b", 0.5}, {"roughness", 0.2}}));
+  m.basis.back().name = "m1";
+  Image w0(res, res, 3), w1(res, res, 3);
+  for (int y = 0; y < res; ++y)
+    for (int x = 0; x < res; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const float t = float(x) / (res - 1);
+        w0.at(x, y, c) = 1 - t;
+        w1.at(x, y, c) = t;
+      }
+  m.weights = {w0, w1};
+  return m;
+}
+
+TEST(GltfFit, ReportedErrorMatchesDirectEvaluation) {
+  const int res = 32;
+  const Material m = TwoMaterialSphere(res);
+  GltfExportOptions o;
+  o.threads = 2;
+  const std::vector<GltfTexel> t = FitGltfTexels(m, o);
+  ASSERT_EQ(t.size(), size_t(res * res));
+  const DirectionPairs d = DirectionPairs::Standard(20, 12);  // as FitGltfTexels
+  for (int x : {0, 16, 31}) {
+    const GltfTexel& g = t[size_t(3) * res + x];
+    double num = 0, den = 0;
+    for (size_t j = 0; j < d.size(); ++j) {
+      Rgb target = Rgb::Zero();
+      for (size_t k = 0; k < m.basis.size(); ++k)
+        target += Rgb(m.weights[k].at(x, 3, 0), m.weights[k].at(x, 3, 1), m.weights[k].at(x, 3, 2)) *
+                  EvalModelD(m.basis[k].spec, m.basis[k].params.data(), d.wi[j], d.wo[j]);
+      const Rgb fit = GltfBrdf(g.base_color, g.metallic, g.roughness, d.wi[j], d.wo[j]);
+      const double s = d.weight[j] * d.wi[j].z() * d.wi[j].z();
+      num += s * (fit - target).square().sum();
+      den += s * target.square().sum();
+    }
+    EXPECT_NEAR(g.error, std::sqrt(num / den), 1e-6) << "texel " << x;
+    EXPECT_LT(g.error, 0.5);
+  }
+  // Pure Lambert texel: dielectric, rough, base colour near the albedo.
+  const GltfTexel& lam = t[size_t(3) * res];
+  EXPECT_LT(lam.metallic, 0.11);
+  EXPECT_GT(lam.roughness, 0.5);
+  EXPECT_NEAR(lam.base_color[0], 0.6, 0.1);
+  // Glossy texel: smoother than the Lambert one.
+  EXPECT_LT(t[size_t(3) * res + 31].roughness, lam.roughness);
+}
+
+std::string TempDir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / Msg("svbrdf_export_test_", getpid(), "_", name);
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+
+TEST(GltfExport, BuffersAndAccessorsAreConsistent) {
+  Material m = TwoMaterialSphere();
+  m.normal_map = Image(m.width, m.height, 3);
+  for (int y = 0; y < m.height; ++y)
+    for (int x = 0; x < m.width; ++x) m.normal_map.at(x, y, 2) = 1;  // +z everywhere: a valid unit normal
+  const std::string dir = TempDir("gltf");
+  GltfExportOptions o;
+  const nlohmann::json report = ExportGltf(m, o, dir);
+  const nlohmann::json g = nlohmann::json::parse(ReadFileBytes(dir + "/model.gltf"));
+  EXPECT_EQ(g["asset"]["version"], "2.0");
+  const size_t bin = fs::file_size(dir + "/model.bin");
+  EXPECT_EQ(g["buffers"][0]["byteLength"].get<size_t>(), bin);
+  for (const auto& v : g["bufferViews"]) {
+    EXPECT_EQ(v["byteOffset"].get<size_t>() % 4, 0u);
+    EXPECT_LE(v["byteOffset"].get<size_t>() + v["byteLength"].get<size_t>(), bin);
+  }
+  const std::map<std::string, size_t> comps{{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}};
+  for (const auto& a : g["accessors"]) {
+    const auto& v = g["bufferViews"][a["bufferView"].get<size_t>()];
+    EXPECT_EQ(a["count"].get<size_t>() * comps.at(a["type"]) * 4, v["byteLength"].get<size_t>());
+  }
+  const auto& prim = g["meshes"][0]["primitives"][0];
+  for (const char* attr : {"POSITION", "NORMAL", "TEXCOORD_0", "TANGENT"}) EXPECT_TRUE(prim["attributes"].contains(attr)) << attr;
+  // Indices in range, normals unit, tangents unit with w = +-1, uv in [0, 1].
+  const std::string bytes = ReadFileBytes(dir + "/model.bin");
+  auto view_of = [&](int accessor) {
+    const auto& v = g["bufferViews"][g["accessors"][accessor]["bufferView"].get<size_t>()];
+    return bytes.data() + v["byteOffset"].get<size_t>();
+  };
+  const size_t nv = g["accessors"][prim["attributes"]["POSITION"].get<int>()]["count"];
+  const size_t ni = g["accessors"][prim["indices"].get<int>()]["count"];
+  EXPECT_EQ(ni, m.mesh.faces.size() * 3);
+  const uint32_t* idx = reinterpret_cast<const uint32_t*>(view_of(prim["indices"]));
+  for (size_t i = 0; i < ni; ++i) ASSERT_LT(idx[i], nv);
+  const float* nrm = reinterpret_cast<const float*>(view_of(prim["attributes"]["NORMAL"]));
+  const float* tan = reinterpret_cast<const float*>(view_of(prim["attributes"]["TANGENT"]));
+  const float* uv = reinterpret_cast<const float*>(view_of(prim["attributes"]["TEXCOORD_0"]));
+  for (size_t v = 0; v < nv; ++v) {
+    EXPECT_NEAR(Vec3(nrm[3 * v], nrm[3 * v + 1], nrm[3 * v + 2]).norm(), 1.0, 1e-5);
+    EXPECT_NEAR(Vec3(tan[4 * v], tan[4 * v + 1], tan[4 * v + 2]).norm(), 1.0, 1e-5);
+    EXPECT_EQ(std::abs(tan[4 * v + 3]), 1.0f);
+    EXPECT_GE(uv[2 * v], 0.0f);
+    EXPECT_LE(uv[2 * v + 1], 1.0f);
+  }
+  for (const auto& im : g["images"]) EXPECT_TRUE(fs::exists(dir + "/" + im["uri"].get<std::string>()));
+  EXPECT_TRUE(g["materials"][0].contains("normalTexture"));
+  EXPECT_GT(report["fit"]["texels"].get<int>(), 0);
+  EXPECT_LT(report["fit"]["relative_error_median"].get<double>(), 0.5);
+  fs::remove_all(dir);
+}
+
+TEST(MitsubaExport, WritesSceneFilesWithExactTextureSums) {
+  const Material m = TwoMaterialSphere();
+  Scene s;
+  Camera cam;
+  cam.id = 1;
+  cam.model = CameraModelId::kPinhole;
+  cam.width = 64;
+  cam.height = 48;
+  cam.params = {80, 80, 30, 26};
+  s.cameras = {cam};
+  Light l;
+  l.id = 1;
+  l.type = LightType::kPoint;
+  l.position = Vec3(0, 2, 2);
+  l.intensity = Rgb(1, 2, 3);
+  s.lights = {l};
+  ImageEntry e;
+  e.file = "images/0000.exr";
+  e.camera = 1;
+  e.light = 1;
+  e.exposure = 2.0;
+  e.cam_from_world = Rigid3::LookAt(Vec3(0, 0, 4), Vec3::Zero(), Vec3::UnitY());
+  s.images = {e, e};
+  const std::string dir = TempDir("mitsuba");
+  MitsubaExportOptions o;
+  const nlohmann::json report = ExportMitsuba(m, &s, o, dir);
+  for (const char* f : {"object.xml", "scene.xml", "view_0000.xml", "view_0001.xml", "mesh.obj", "views.json",
+                        "textures/diffuse.exr", "textures/m1_specular.exr", "export_report.json"})
+    EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
+  EXPECT_EQ(report["parts"], 2);
+  const std::string object = ReadFileBytes(dir + "/object.xml");
+  EXPECT_NE(object.find("<bsdf type=\"blendbsdf\" id=\"material\">"), std::string::npos) << object;
+  EXPECT_NE(object.find("name=\"weight\" value=\"0.5\""), std::string::npos);
+  EXPECT_NE(object.find("<bsdf type=\"roughconductor\">"), std::string::npos);
+  EXPECT_NE(object.find("name=\"distribution\" value=\"beckmann\""), std::string::npos);
+  EXPECT_NE(object.find("<shape type=\"obj\">"), std::string::npos);
+  const std::string view = ReadFileBytes(dir + "/view_0001.xml");
+  EXPECT_NE(view.find("<include filename=\"object.xml\"/>"), std::string::npos);
+  EXPECT_NE(view.find("name=\"intensity\" value=\"2, 4, 6\""), std::string::npos) << view;  // x exposure
+  EXPECT_NE(view.find("name=\"fov\" value=\"" + XmlNumber(2 * std::atan(32.0 / 80) * 180 / kPi) + "\""), std::string::npos);
+  EXPECT_NE(view.find("name=\"principal_point_offset_x\" value=\"0.03125\""), std::string::npos);  // (32 - 30) / 64
+  EXPECT_NE(view.find("name=\"principal_point_offset_y\" value=\"-0.041666666666666664\""), std::string::npos);
+  // Textures: parts x sum_k w_k rd_k and parts x w_1 rs_1.
+  const Image diffuse = ReadImage(dir + "/textures/diffuse.exr"), spec = ReadImage(dir + "/textures/m1_specular.exr");
+  for (int x : {0, 5, 31}) {
+    const double t = x / 31.0;
+    EXPECT_NEAR(diffuse.at(x, 3, 0), 2 * ((1 - t) * 0.6 + t * 0.05), 1e-5);
+    EXPECT_NEAR(diffuse.at(x, 3, 2), 2 * ((1 - t) * 0.2 + t * 0.3), 1e-5);
+    EXPECT_NEAR(spec.at(x, 3, 1), 2 * t * 0.5, 1e-5);
+  }
+  const nlohmann::json views = nlohmann::json::parse(ReadFileBytes(dir + "/views.json"));
+  ASSERT_EQ(views.size(), 2u);
+  EXPECT_EQ(views[1]["image"], "images/0000.exr");
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace svbrdf

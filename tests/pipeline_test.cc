@@ -1,0 +1,45 @@
+// report.html: one self-contained page from a reconstruction's summary and pictures.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "io/files.h"
+#include "io/image.h"
+#include "pipeline/report_html.h"
+
+namespace svbrdf {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(ReportHtml, HasMapsTwinTimingsModelsAndWarnings) {
+  const std::string dir = ::testing::TempDir() + "/report_html_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const char* f : {"cluster_map.png", "weights_m0.png", "confidence.png", "residual.png", "heldout_photo.png",
+                        "heldout_relit.png", "heldout_error.png"})
+    WriteImage(dir + "/" + f, Image(4, 4, 3, 0.25f), PixelFormat::kUInt8, ColorSpace::kLinear);
+  const nlohmann::json summary = {
+      {"scene", "cap/scene.json"}, {"texels", 100}, {"texture_size", 16}, {"clusters", 1}, {"weights", "per_channel"},
+      {"heldout_rmse", 0.01},
+      {"samples", {{"kept", 5}, {"candidates", 100}, {"saturated", 20}}},
+      {"basis", {{{"name", "m0"}, {"label", "lambert"}, {"params", {{"rd_r", 0.5}, {"rd_g", 0.25}, {"rd_b", 0.125}}}}}},
+      {"twin", {{"view", "images/0000.exr"}, {"psnr_srgb", 25.0}, {"rel_rmse_linear", 0.1}, {"kind", "held-out view"}}},
+      {"timings_s", {{"gather samples", 1.5}, {"fit + cluster", 7.25}}},
+      {"total_s", 8.75},
+      {"warnings", {"a warning from a stage"}}};
+  const std::vector<std::string> w = ReportWarnings(summary);
+  EXPECT_EQ(w.size(), 5u);  // the stage's own + few kept + saturated + low PSNR + one cluster
+  WriteReportHtml(summary, dir);
+  const std::string html = ReadFileBytes(dir + "/report.html");
+  for (const char* s : {"cluster map", "weights of m0", "confidence", "residual", "photo", "relit", "gather samples",
+                        "7.25", "lambert", "rd_r = 0.5", "a warning from a stage", "only 5.0 % of the candidate"})
+    EXPECT_NE(html.find(s), std::string::npos) << s;
+  size_t images = 0;
+  for (size_t p = html.find("data:image/png;base64,"); p != std::string::npos; p = html.find("data:image/png;base64,", p + 1)) ++images;
+  EXPECT_EQ(images, 7u);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace svbrdf
