@@ -63,7 +63,13 @@ std::vector<char> HeldOutImages(int num_images, double holdout_fraction, uint64_
 
 namespace {
 
-constexpr double kPriorSamples = 1.0;  // weight of the clustering's weights in the re-solve, in samples
+// Weight of the clustering's weights in the re-solve, in samples. The
+// clustering's weights were fitted on every photo, held-out ones included,
+// with the mesh normals: in the decision's fits on training photos they would
+// leak the held-out photos into the mesh-normal arm, so there they only
+// regularise (a hundredth of a sample).
+constexpr double kPriorSamples = 1.0;
+constexpr double kDecisionPriorSamples = 0.01;
 
 // Per-texel state of the alternation: tilt (a, b) and mixing weights.
 struct State {
@@ -234,7 +240,8 @@ class Refiner {
 
   // Mixing weights by NNLS with the normal (a, b) on the texel's own
   // samples, over its support, with a weak prior towards w0 (the clustering's).
-  void SolveWeights(int t, const std::vector<TexelSample>& fit, const double* ab, const float* w0, float* w) const {
+  void SolveWeights(int t, const std::vector<TexelSample>& fit, const double* ab, const float* w0, double prior,
+                    float* w) const {
     const std::vector<int>& sup = support_[t];
     const int m = int(sup.size());
     if (m == 0 || fit.empty()) {
@@ -256,7 +263,7 @@ class Refiner {
     }
     const double n = double(fit.size());
     auto solve = [&](Eigen::MatrixXd A, Eigen::VectorXd b, const Eigen::VectorXd& target) {
-      const double lambda = kPriorSamples * A.trace() / (m * n) + 1e-12;
+      const double lambda = prior * A.trace() / (m * n) + 1e-12;
       A.diagonal().array() += lambda;
       b += lambda * target;
       return NnlsNormal(A, b);
@@ -324,7 +331,8 @@ class Refiner {
     auto solve_weights = [&] {
       ParallelFor(n, o_.threads, [&](long j) {
         const int t = texels[j];
-        SolveWeights(t, Samples(t, which), &st->ab[2 * j], Est(t), &st->w[size_t(j) * K_ * 3]);
+        SolveWeights(t, Samples(t, which), &st->ab[2 * j], Est(t), which == 2 ? kPriorSamples : kDecisionPriorSamples,
+                     &st->w[size_t(j) * K_ * 3]);
       }, 64);
     };
     // Start: mesh normals (or `start`), weights re-solved from the
