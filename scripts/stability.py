@@ -19,6 +19,7 @@ into OUT_DIR/bin at start, so a rebuild of the shared build tree mid-run
 cannot mix two versions of the code.
 
 Usage: nice -n 5 /usr/bin/python3 scripts/stability.py [--quick] [--preset default] [--out-dir /tmp/svbrdf_bench]
+       [--faults images,noise] [--name stability_images]   (a subset of the faults, into its own files)
 """
 import argparse
 import json
@@ -228,7 +229,13 @@ def main():
     ap.add_argument("--skip-speed", action="store_true", help="skip the --max-fit-samples sweep")
     ap.add_argument("--bin", default=bench.DEFAULT_BIN)
     ap.add_argument("--results", default=bench.RESULTS)
+    ap.add_argument("--faults", default=",".join(FAULTS), help="comma-separated faults to vary (default: all)")
+    ap.add_argument("--name", default="stability", help="basename of the result files in --results")
     a = ap.parse_args()
+    faults = [f for f in a.faults.split(",") if f]
+    for f in faults:
+        if f not in FAULTS:
+            sys.exit(f"stability: unknown fault '{f}' (known: {', '.join(FAULTS)})")
 
     work = os.path.join(os.path.abspath(a.out_dir), "stability", a.preset)
     os.makedirs(work, exist_ok=True)
@@ -240,7 +247,10 @@ def main():
     study = {"preset": a.preset, "description": desc, "quick": a.quick, "base": base, "environment": env,
              "faults": {}}
     results = {}
+    out = os.path.join(a.results, a.name)
     for f, (flag, full, quick, _unit) in FAULTS.items():
+        if f not in faults:
+            continue
         pts = []
         for v in (quick if a.quick else full):
             key = point_key(f, v, base)
@@ -250,15 +260,14 @@ def main():
             pts.append({"value": v, "key": key, "result": results[key]})
         study["faults"][f] = pts
         # Write after every fault so partial studies survive interruption.
-        json.dump(study, open(os.path.join(a.results, "stability.json"), "w"), indent=2)
+        json.dump(study, open(out + ".json", "w"), indent=2)
     trues = {r.get("true_clusters") for r in results.values() if r.get("true_clusters")}
     study["true_clusters"] = trues.pop() if len(trues) == 1 else sorted(trues)
-    json.dump(study, open(os.path.join(a.results, "stability.json"), "w"), indent=2)
-    write_stability_md(study, os.path.join(a.results, "stability.md"))
-    write_stability_png(study, os.path.join(a.results, "stability.png"))
-    html_report.write_html(os.path.join(a.results, "stability.html"), "svbrdf stability study",
-                           [os.path.join(a.results, "stability.md")], [os.path.join(a.results, "stability.png")])
-    print(f"[stability] wrote {a.results}/stability.json, stability.md, stability.png", flush=True)
+    json.dump(study, open(out + ".json", "w"), indent=2)
+    write_stability_md(study, out + ".md")
+    write_stability_png(study, out + ".png")
+    html_report.write_html(out + ".html", "svbrdf stability study", [out + ".md"], [out + ".png"])
+    print(f"[stability] wrote {out}.json, .md, .png", flush=True)
 
     if a.skip_speed:
         return

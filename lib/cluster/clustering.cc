@@ -42,6 +42,18 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
       if (u >= 0 && u < nt_) neighbours_[t].push_back(u);
     }
   }
+  mix_neighbours_.resize(nt_);
+  const int r = o.mix_radius;
+  for (int t = 0; t < nt_ && t < int(atlas.texels.size()); ++t) {
+    const Texel& tx = atlas.texels[t];
+    for (int dy = -r; dy <= r; ++dy)
+      for (int dx = -r; dx <= r; ++dx) {
+        const int x = tx.x + dx, y = tx.y + dy;
+        if ((dx == 0 && dy == 0) || x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
+        const int u = atlas.At(x, y);
+        if (u >= 0 && u < nt_) mix_neighbours_[t].push_back(u);
+      }
+  }
   usable_.resize(nt_);
   for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_samples;
   if (std::count(usable_.begin(), usable_.end(), true) == 0)
@@ -82,7 +94,11 @@ void Clustering::RemoveBasis(int k) {
 // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
 FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples,
                           int threads) const {
-  const std::vector<int64_t> ids = Ids(k, false);
+  return FitIds(spec, Ids(k, false), init, max_samples, threads);
+}
+
+FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
+                             int64_t max_samples, int threads) const {
   FitOptions fo = o_.fit;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;

@@ -38,6 +38,8 @@ class Clustering {
   const std::vector<char>& holdout() const { return holdout_; }
   const std::vector<int>& train_count() const { return train_count_; }
   const std::vector<std::vector<int>>& neighbours() const { return neighbours_; }
+  // Texels within options().mix_radius (whose clusters a texel's weights may mix).
+  const std::vector<std::vector<int>>& mix_neighbours() const { return mix_neighbours_; }
   const SampleSet& samples() const { return s_; }
   const ReconstructOptions& options() const { return o_; }
 
@@ -51,6 +53,9 @@ class Clustering {
   // Robust fit of `spec` to cluster k's training samples (see clustering.cc).
   FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0,
                 int threads = -1) const;
+  // The same on the samples `ids`.
+  FitResult FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
+                   int64_t max_samples = 0, int threads = -1) const;
 
   // Squared error of texel t's samples under basis k with the best brightness
   // scale a in [0.5, 2] shared by the channels (a texel may be darker or
@@ -87,7 +92,7 @@ class Clustering {
   std::vector<int> train_count_;
   std::vector<char> usable_;
   std::vector<int> assign_;
-  std::vector<std::vector<int>> neighbours_;
+  std::vector<std::vector<int>> neighbours_, mix_neighbours_;
   std::vector<char> changed_;
   std::vector<BasisMaterial> basis_;
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample

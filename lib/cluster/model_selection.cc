@@ -1,13 +1,48 @@
 #include "cluster/model_selection.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 #include <string>
 
 #include "cluster/stats.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/rng.h"
 
 namespace svbrdf {
+
+namespace {
+
+// Fewer held-out samples than this in a cluster (few photos: the held-out
+// photos may not see it at all) and the model is chosen on photos taken
+// from its training samples instead.
+constexpr size_t kMinValidationSamples = 300;
+
+// Moves the samples of whole training photos (in a seeded order, about a
+// quarter of the cluster's samples) from `train` to `hold`.
+void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, std::vector<int64_t>* hold) {
+  const SampleSet& s = cl.samples();
+  std::map<int, size_t> per_image;
+  for (int64_t i : *train) per_image[s.image[i]]++;
+  if (per_image.size() < 2) return;
+  std::vector<std::pair<double, int>> order;
+  for (const auto& [im, n] : per_image) order.emplace_back(HashUniform(cl.options().seed, uint64_t(im), 0x5e1ec7), im);
+  std::sort(order.begin(), order.end());
+  std::set<int> held;
+  size_t moved = 0;
+  for (const auto& [h, im] : order) {
+    if (held.size() + 1 >= per_image.size() || 4 * moved >= train->size()) break;
+    held.insert(im);
+    moved += per_image[im];
+  }
+  std::vector<int64_t> keep;
+  for (int64_t i : *train) (held.count(s.image[i]) ? *hold : keep).push_back(i);
+  *train = std::move(keep);
+}
+
+}  // namespace
 
 void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
   const ReconstructOptions& o = cl.options();
@@ -16,7 +51,8 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
   // 3. Model economy per cluster.
   std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
   for (int k = 0; k < cl.K(); ++k) {
-    const std::vector<int64_t> hold = cl.Ids(k, true);
+    std::vector<int64_t> hold = cl.Ids(k, true), train = cl.Ids(k, false);
+    if (hold.size() < kMinValidationSamples && candidates.size() > 1) ValidationFromTraining(cl, &train, &hold);
     struct Tried {
       ModelSpec spec;
       FitResult fit;
@@ -28,8 +64,8 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
     std::vector<Tried> tried(candidates.size());
     ParallelFor(long(candidates.size()), o.threads, [&](long j) {
       const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
-      const FitResult r = cl.Fit(spec, k, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{},
-                                 o.selection_samples, 1);
+      const FitResult r = cl.FitIds(spec, train, spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{},
+                                    o.selection_samples, 1);
       std::vector<double> e = SampleErrors(spec, r.params, samples, hold);
       tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
     });

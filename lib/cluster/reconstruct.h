@@ -77,6 +77,10 @@ struct ReconstructOptions {
   double parsimony = 0.001;      // prefer fewer parameters unless the best's RMSE is lower by this x signal RMS
   int64_t selection_samples = 3000;  // samples per candidate fit during model selection
   int refine_iterations = 2;
+  // Per-texel weights mix the materials of every cluster within this many
+  // texels (Chebyshev distance in the atlas): blends wider than one texel and
+  // junctions of three or more regions get all their materials.
+  int mix_radius = 2;
   int min_samples = 3;           // per texel, for fits and confident weights
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
   // cluster's residuals), 0 = plain least squares, > 0 = this scale.

@@ -80,13 +80,14 @@ double Clustering::MixtureError(bool per_channel, bool fit_on_all, bool eval_on_
       AtA[c].diagonal().array() += lambda;
       Atb[c].col(0) += lambda * (per_channel ? w0c[c] : Eigen::VectorXd((w0c[0] + w0c[1] + w0c[2]) / 3.0));
     }
-    // Only materials of the texel's own and its neighbours' clusters mix:
-    // inside a region that is one material (at a free brightness), at a
-    // border a blend of two. Free mixing of all K on a few samples
-    // extrapolates badly to unseen light/view pairs (seen: false highlights).
+    // Only materials of the clusters within `mix_radius` texels mix: inside
+    // a region one material (at a free brightness), in a blend zone or at a
+    // junction all the materials around it. Free mixing of all K on a few
+    // samples extrapolates badly to unseen light/view pairs (seen: false
+    // highlights).
     std::vector<char> allowed(K, 0);
     allowed[k0] = 1;
-    for (int u : neighbours_[t])
+    for (int u : mix_neighbours_[t])
       if (train_count_[u] > 0) allowed[std::clamp(assign_[u], 0, K - 1)] = 1;
     for (int k = 0; k < K; ++k)
       if (!allowed[k])

@@ -42,7 +42,8 @@ SplitMesh Split(const Mesh& mesh, bool with_tangents) {
       if (inserted) {
         pos_of.push_back(p);
         for (int c = 0; c < 3; ++c) s.positions.push_back(float(mesh.positions[p][c]));
-        const Vec3 n = mesh.normals[p].normalized();
+        Vec3 n = mesh.normals[p].normalized();
+        if (!n.allFinite()) n = Vec3::UnitZ();  // isolated or degenerate vertex: any unit normal keeps the file valid
         for (int c = 0; c < 3; ++c) s.normals.push_back(float(n[c]));
         s.uvs.push_back(float(mesh.texcoords[t].x()));
         s.uvs.push_back(float(1.0 - mesh.texcoords[t].y()));  // glTF: v down, origin at the image's top left

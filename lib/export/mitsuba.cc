@@ -1,6 +1,7 @@
 #include "export/mitsuba.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "atlas/atlas.h"
@@ -277,7 +278,7 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
     if (!forms[k].has_lobe) continue;
     Image spec(m.width, m.height, 3, 0.0f);
     for (size_t i = 0; i < spec.pixels.size(); ++i) spec.pixels[i] = float(parts * w.pixels[i] * forms[k].rs[i % 3]);
-    const std::string file = Msg("textures/", m.basis[k].name, "_specular.exr");
+    const std::string file = Msg("textures/m", k, "_specular.exr");  // by index: names may hold any character
     WriteImage((fs::path(dir) / file).string(), spec, PixelFormat::kFloat);
     bsdfs.push_back(Lobe(forms[k], file));
     bsdfs.back().Comment(Msg("basis material ", m.basis[k].name, " (", m.basis[k].spec.Label(), "): ", forms[k].how));
@@ -335,7 +336,9 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
       root.Add(Sensor(scene->CameraById(e.camera), e.cam_from_world, bounds, o.spp, &warnings, where));
       root.Add(Emitter(scene->LightById(e.light), e, bounds, &warnings, where))
           .Comment(Msg("light ", e.light, ", scaled by the image's exposure ", e.exposure));
-      const std::string file = Msg("view_", i < 1000 ? (i < 100 ? (i < 10 ? "000" : "00") : "0") : "", i, ".xml");
+      char file_buf[32];
+      std::snprintf(file_buf, sizeof(file_buf), "view_%04zu.xml", i);
+      const std::string file = file_buf;
       WriteXml((fs::path(dir) / file).string(), root, Msg("svbrdf export: ", e.file));
       if (i == 0) WriteXml((fs::path(dir) / "scene.xml").string(), root, Msg("svbrdf export: first view, ", e.file));
       views.push_back({{"xml", file}, {"image", e.file}, {"mask", e.mask}, {"exposure", e.exposure}});
