@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -192,9 +193,19 @@ TEST(Fit, ReportsFailureInsteadOfSilence) {
   const ModelSpec spec = ModelSpec::FromLabel("lambert");
   SampleSet set = SynthesizeSamples(spec, {0.6, 0.4, 0.2}, Synth(500));
   set.y[1][17] = std::nanf("");
-  const FitResult r = FitModel(spec, set, {}, FitOptions{});
-  EXPECT_FALSE(r.converged);
-  EXPECT_FALSE(r.message.empty());
+  // A non-finite sample never reaches Ceres: an Error naming the fit's context.
+  FitOptions named;
+  named.context = "cluster 3, split";
+  try {
+    FitModel(spec, set, {}, named);
+    ADD_FAILURE() << "a NaN sample must be an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cluster 3, split"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+  }
+  set.y[1][17] = 0.5f;
+  set.geom[3] = std::numeric_limits<float>::infinity();
+  EXPECT_THROW(FitModel(spec, set, {}, named), Error);
 
   const FitResult empty = FitModel(spec, SampleSet{}, {}, FitOptions{});
   EXPECT_FALSE(empty.converged);

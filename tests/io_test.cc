@@ -11,6 +11,7 @@
 #include "io/image.h"
 #include "io/material.h"
 #include "io/mesh.h"
+#include "io/output_folder.h"
 #include "io/scene.h"
 
 namespace svbrdf {
@@ -502,7 +503,10 @@ TEST(Material, EveryModelRoundTrips) {
     b.name = spec.Label();
     b.spec = spec;
     b.params = spec.InitialParams();
-    for (size_t i = 0; i < b.params.size(); ++i) b.params[i] += 1e-3 * (i + 1);  // distinct, exact in JSON
+    // Distinct values, exact in JSON, inside the range the loader enforces.
+    const std::vector<ParamInfo> info = spec.Params();
+    for (size_t i = 0; i < b.params.size(); ++i)
+      b.params[i] += (b.params[i] + 1e-3 * (i + 1) <= info[i].upper ? 1 : -1) * 1e-3 * (i + 1);
     a.basis.push_back(b);
     a.weights.push_back(Ramp(6, 4, 3));
   }
@@ -574,6 +578,51 @@ TEST(Material, ErrorsNameTheField) {
     WriteText(file, j.dump());
     ExpectError([&] { LoadMaterial(dir / "m"); }, {file + ": " + c.needle});
   }
+}
+
+TEST(OutputFolder, UncommittedLeavesNothing) {
+  const fs::path dir = fs::temp_directory_path() / Msg("svbrdf_outdir_", getpid());
+  fs::remove_all(dir);
+  {
+    OutputFolder out((dir / "result").string());
+    EXPECT_NE(out.path(), out.final_path());
+    EXPECT_EQ(fs::path(out.path()).parent_path(), dir) << "same parent, so the rename stays on one file system";
+    std::ofstream(out.path() + "/a.txt") << "half";
+    EXPECT_FALSE(fs::exists(dir / "result"));
+  }  // an exception or early return: destroyed without Commit
+  EXPECT_TRUE(fs::is_empty(dir));
+  fs::remove_all(dir);
+}
+
+TEST(OutputFolder, CommitReplacesThePreviousResultWhole) {
+  const fs::path dir = fs::temp_directory_path() / Msg("svbrdf_outdir2_", getpid());
+  fs::remove_all(dir);
+  fs::create_directories(dir / "result");
+  std::ofstream(dir / "result" / "old.txt") << "old";
+  {
+    OutputFolder out((dir / "result/").string());  // a trailing slash names the same folder
+    std::ofstream(out.path() + "/new.txt") << "new";
+    EXPECT_TRUE(fs::exists(dir / "result" / "old.txt")) << "the previous result stays until the commit";
+    out.Commit();
+    out.Commit();  // idempotent
+  }
+  EXPECT_TRUE(fs::exists(dir / "result" / "new.txt"));
+  EXPECT_FALSE(fs::exists(dir / "result" / "old.txt"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1) << "no temporary left";
+  // Nested: a material folder written atomically inside an output folder.
+  {
+    OutputFolder outer((dir / "outer").string());
+    OutputFolder inner(outer.path());
+    std::ofstream(inner.path() + "/x.txt") << "x";
+    inner.Commit();
+    outer.Commit();
+  }
+  EXPECT_TRUE(fs::exists(dir / "outer" / "x.txt"));
+  // A file where the folder should go is an error before any work is done.
+  std::ofstream(dir / "file") << "not a folder";
+  EXPECT_THROW(OutputFolder((dir / "file").string()), Error);
+  EXPECT_THROW(OutputFolder("."), Error);
+  fs::remove_all(dir);
 }
 
 }  // namespace

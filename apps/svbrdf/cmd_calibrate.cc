@@ -4,6 +4,7 @@
 #include "apps/svbrdf/commands.h"
 #include "calib/intrinsics.h"
 #include "core/error.h"
+#include "io/output_folder.h"
 
 namespace svbrdf::cli {
 
@@ -42,7 +43,9 @@ void RegisterCalibrate(CLI::App& app, Runner* run) {
       o.model = CameraModelFromName(a->model, "--model");
       o.reject_factor = a->reject_factor;
       const CalibrationResult r = CalibrateIntrinsics(a->images, o);
-      WriteCalibration(r, a->images, a->out);
+      OutputFolder out(a->out);  // complete or absent, also on errors and signals
+      WriteCalibration(r, a->images, out.path());
+      out.Commit();
       for (const auto& v : r.views)
         std::printf("  %-24s %s\n", v.name.c_str(),
                     v.used ? Msg(v.points.size(), " points, RMS ", v.rms, " px").c_str()

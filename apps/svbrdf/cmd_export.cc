@@ -10,6 +10,7 @@
 #include "export/gltf.h"
 #include "export/mitsuba.h"
 #include "io/material.h"
+#include "io/output_folder.h"
 #include "io/scene.h"
 
 namespace svbrdf::cli {
@@ -43,24 +44,12 @@ void RegisterExport(CLI::App& app, Runner* run) {
       std::unique_ptr<Scene> scene;
       if (!a->scene.empty()) scene = std::make_unique<Scene>(LoadScene(a->scene));
       // Written under a temporary sibling name, renamed when complete.
-      const fs::path out = fs::path(a->out).lexically_normal();
-      const fs::path dir = out.has_filename() ? out : out.parent_path();
-      const fs::path tmp = Msg(dir.string(), ".tmp-", getpid());
-      std::error_code ec;
-      fs::remove_all(tmp, ec);
-      fs::create_directories(tmp);
+      OutputFolder out(a->out);
+      const fs::path dir = out.final_path();
       nlohmann::json report;
-      try {
-        if (a->format == "mitsuba") report = ExportMitsuba(material, scene.get(), a->mitsuba, tmp.string());
-        else report = ExportGltf(material, a->gltf, tmp.string());
-        const fs::path old = Msg(dir.string(), ".old-", getpid());
-        if (fs::exists(dir)) fs::rename(dir, old);
-        fs::rename(tmp, dir);
-        fs::remove_all(old, ec);
-      } catch (...) {
-        fs::remove_all(tmp, ec);
-        throw;
-      }
+      if (a->format == "mitsuba") report = ExportMitsuba(material, scene.get(), a->mitsuba, out.path());
+      else report = ExportGltf(material, a->gltf, out.path());
+      out.Commit();
       for (const auto& w : report.value("warnings", nlohmann::json::array()))
         std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
       std::printf("exported %s (%s) in %.2f s into %s\n", a->material.c_str(), a->format.c_str(),

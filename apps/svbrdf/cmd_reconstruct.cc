@@ -4,6 +4,7 @@
 
 #include "apps/svbrdf/commands.h"
 #include "core/error.h"
+#include "io/output_folder.h"
 #include "pipeline/reconstruction.h"
 
 namespace svbrdf::cli {
@@ -50,7 +51,12 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
       job->gather.threads = job->estimate.threads;
       job->estimate.fit.threads = job->estimate.threads;
       job->estimate.fit.seed = job->estimate.seed;
-      const auto summary = RunReconstruction(*job);
+      // The whole folder (material and report) appears only when complete.
+      OutputFolder out(job->out_dir);
+      ReconstructionJob in_tmp = *job;
+      in_tmp.out_dir = out.path();
+      const auto summary = RunReconstruction(in_tmp);
+      out.Commit();
       std::printf("material: %s/material.json (%d basis materials)\n", job->out_dir.c_str(), int(summary["clusters"]));
       if (job->report) std::printf("report:   %s/report/ (summary.json, cluster_map.png, *_relit.png)\n", job->out_dir.c_str());
       return 0;

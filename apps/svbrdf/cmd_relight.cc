@@ -4,6 +4,7 @@
 
 #include "apps/svbrdf/commands.h"
 #include "io/material.h"
+#include "io/output_folder.h"
 #include "io/scene.h"
 #include "relight/relight.h"
 
@@ -37,7 +38,9 @@ void RegisterRelight(CLI::App& app, Runner* run) {
       const auto t0 = std::chrono::steady_clock::now();
       const Material material = LoadMaterial(a->material);
       const Scene scene = LoadScene(a->scene);
-      const int n = RelightScene(material, scene, a->out, a->options);
+      OutputFolder out(a->out);
+      const int n = RelightScene(material, scene, out.path(), a->options);
+      out.Commit();
       std::printf("relit %d images in %.2f s into %s\n", n,
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), a->out.c_str());
       return 0;

@@ -6,8 +6,11 @@
 
 #include "apps/svbrdf/commands.h"
 #include "core/error.h"
+#include "io/output_folder.h"
 
 int main(int argc, char** argv) {
+  // First, before any thread exists: SIGINT/SIGTERM remove unfinished output folders.
+  svbrdf::RemoveOutputsOnSignal();
   CLI::App app{
       "svbrdf - spatially varying BRDF reconstruction and relighting.\n"
       "Typical use:\n"

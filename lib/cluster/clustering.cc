@@ -103,6 +103,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   fo.robust_scale = std::max(0.0, o_.robust_scale);
+  fo.context = Msg("reconstruct: cluster ", k, " (", stage, ")");
   FitResult ls = FitModel(spec, s_, ids, fo, init);
   if (o_.robust_scale >= 0 || ids.empty()) return ls;
   std::vector<float> r;

@@ -50,6 +50,9 @@ class Clustering {
   void SetBasis(int k, const BasisMaterial& b);
   void RemoveBasis(int k);
 
+  // Names the current stage in fit errors ("reconstruct: cluster 2 (split): ...").
+  const char* stage = "clustering";
+
   // Robust fit of `spec` to cluster k's training samples (see clustering.cc).
   FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0,
                 int threads = -1) const;

@@ -21,6 +21,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   const auto start = std::chrono::steady_clock::now();
 
   // 1. One cluster.
+  cl.stage = "initial fit";
   cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
   const double heldout = cl.HeldoutRmse();
   est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
@@ -30,6 +31,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // deadline, not even one split when it would not fit: a split costs about
   // four fits like the first (two halves, then refinement refits).
   const double first_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  cl.stage = "split";
   if (o.SecondsLeft() > 4 * first_fit_seconds) {
     SearchClusters(cl, &est, log);
   } else {
@@ -41,6 +43,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // runs only when it fits: it costs about as much as the search so far
   // (measured: 0.7-1.3x), and the clustering model is a good fallback.
   const double search_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  cl.stage = "model selection";
   if (o.SecondsLeft() > search_seconds) {
     SelectModels(cl, &est, log);
   } else {
@@ -48,6 +51,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     log(Msg("time budget: model selection skipped (", o.SecondsLeft(), " s left)"));
   }
   if (o.SecondsLeft() > 0) {
+    cl.stage = "final refinement";
     Refine(cl, std::max(1, o.refine_iterations - 1));
   } else {
     est.cut_by_deadline.push_back("final refinement");

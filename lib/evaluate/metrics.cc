@@ -34,15 +34,42 @@ ImageMetrics CompareImages(const Image& ref, const Image& test, const Image* mas
   return m;
 }
 
+namespace {
+
+// Sizes agree and every value that takes part (inside the mask) is finite:
+// a metric over NaN would print "nan dB" instead of naming the broken file.
+void CheckComparable(const Image& img, const std::string& file, const Image& ref, const std::string& ref_file,
+                     const Image* mask) {
+  if (img.width != ref.width || img.height != ref.height)
+    throw Error(Msg(file, ": image is ", img.width, "x", img.height, " but ", ref_file, " is ", ref.width, "x",
+                    ref.height));
+  if (img.channels < 1) throw Error(Msg(file, ": image has no channels"));
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      if (mask && !(mask->at(x, y, 0) > 0)) continue;
+      for (int c = 0; c < img.channels; ++c)
+        if (!std::isfinite(img.at(x, y, c)))
+          throw Error(Msg(file, ": pixel (", x, ", ", y, ") is not finite (", img.at(x, y, c), ")"));
+    }
+}
+
+}  // namespace
+
 SceneComparison CompareToScene(const Scene& scene, const std::string& rendered_dir) {
   SceneComparison out;
   double psnr = 0, rmse = 0;
   out.min_psnr_srgb = 1e9;
   for (const ImageEntry& e : scene.images) {
-    const Image ref = ReadImage(scene.Resolve(e.file), scene.images_color_space);
-    const Image test = ReadImage(rendered_dir + "/" + e.file, scene.images_color_space);
+    const std::string ref_file = scene.Resolve(e.file), test_file = rendered_dir + "/" + e.file;
+    const Image ref = ReadImage(ref_file, scene.images_color_space);
+    const Image test = ReadImage(test_file, scene.images_color_space);
     Image mask;
-    if (!e.mask.empty()) mask = ReadImage(scene.Resolve(e.mask));
+    if (!e.mask.empty()) {
+      mask = ReadImage(scene.Resolve(e.mask));
+      CheckComparable(mask, scene.Resolve(e.mask), ref, ref_file, nullptr);
+    }
+    CheckComparable(ref, ref_file, ref, ref_file, e.mask.empty() ? nullptr : &mask);
+    CheckComparable(test, test_file, ref, ref_file, e.mask.empty() ? nullptr : &mask);
     const ImageMetrics m = CompareImages(ref, test, e.mask.empty() ? nullptr : &mask, e.exposure);
     out.files.push_back(e.file);
     out.per_image.push_back(m);

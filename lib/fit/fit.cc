@@ -129,6 +129,13 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
   const std::vector<int64_t> selected = SelectSamples(samples, ids, options);
   const PackedSamples packed = PackedSamples::FromIds(samples, selected);
   const int64_t n = packed.size();
+  // Gathering rejects non-finite pixels; this keeps any other source (a
+  // caller's samples, a broken light) from reaching Ceres as NaN residuals.
+  for (int64_t i = 0; i < n; ++i)
+    for (int k = 0; k < PackedSamples::kStride; ++k)
+      if (!std::isfinite(packed.row(i)[k]))
+        throw Error(Msg(options.context, ": ", spec.Label(), " fit: sample ", selected[i],
+                        " has a non-finite value (direction, geometry factor or measurement)"));
   const int64_t screen = std::min(n, kScreenSamples);
 
   std::vector<double> base = initial.empty() ? spec.InitialParams() : initial;
@@ -176,19 +183,14 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
   const ceres::Solver::Summary& summary = final.summary;
   result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   result.message = summary.message;
-  if (final.usable()) {
-    result.params = final.params;
-    result.converged = summary.termination_type == ceres::CONVERGENCE;
-  } else {
-    result.params = best;
-    result.message = Msg("fit failed (", ceres::TerminationTypeToString(summary.termination_type), "): ",
-                         summary.message);
-  }
+  if (!final.usable())
+    throw Error(Msg(options.context, ": ", spec.Label(), " fit on ", n, " samples failed (",
+                    ceres::TerminationTypeToString(summary.termination_type), ": ", summary.message, ")"));
+  result.params = final.params;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.cost = SumSquaredResidual(spec, result.params, samples, selected, options.threads, nullptr) / (3.0 * n);
-  if (!std::isfinite(result.cost)) {
-    result.converged = false;
-    result.message += " (non-finite residuals)";
-  }
+  if (!std::isfinite(result.cost))
+    throw Error(Msg(options.context, ": ", spec.Label(), " fit on ", n, " samples ended at a non-finite cost"));
   return result;
 }
 

@@ -28,6 +28,10 @@ struct FitOptions {
   bool multi_start = true;
   int threads = 0;  // 0 = all cores
   uint64_t seed = 1;
+  // Names the fit in errors (e.g. "cluster 2, split"): a fit given a
+  // non-finite sample, or whose solve fails or ends at a non-finite cost,
+  // throws Error with it instead of returning a meaningless material.
+  std::string context = "fit";
   void Check() const;  // throws Error for out-of-range values
 };
 

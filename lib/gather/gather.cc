@@ -16,27 +16,33 @@ namespace svbrdf {
 void GatherOptions::Check() const {
   if (texture_size < 4 || texture_size > 8192) throw Error(Msg("gather: texture size must be in [4, 8192], got ", texture_size));
   if (!(min_cos >= 0 && min_cos < 1)) throw Error(Msg("gather: min_cos must be in [0, 1), got ", min_cos));
+  if (!(noise_floor >= 0 && std::isfinite(noise_floor))) throw Error(Msg("gather: noise floor must be finite and >= 0, got ", noise_floor));
+  if (!(min_signal_fraction >= 0 && min_signal_fraction <= 1))
+    throw Error(Msg("gather: min signal fraction must be in [0, 1], got ", min_signal_fraction));
   if (!(texel_footprint > 0 && texel_footprint <= 1000))
     throw Error(Msg("gather: texel footprint must be in (0, 1000] pixels, got ", texel_footprint));
   if (max_atlas_size < 16 || max_atlas_size > 16384)
     throw Error(Msg("gather: max atlas size must be in [16, 16384], got ", max_atlas_size));
 }
 
-std::string GatherStats::Report() const {
+std::string GatherStats::Report(bool with_warnings) const {
   std::ostringstream os;
   os << "samples kept " << kept << " of " << candidates << " texel-views (" << texels << " texels); rejected: "
      << outside_image << " outside image, " << back_facing << " back-facing/grazing view, " << occluded
      << " occluded, " << outside_mask << " outside mask, " << unlit << " unlit/grazing light, " << shadowed
-     << " shadowed, " << saturated << " saturated";
+     << " shadowed, " << saturated << " saturated, " << invalid << " non-finite/negative pixel";
+  if (with_warnings)
+    for (const std::string& w : warnings) os << "\n  warning: " << w;
   return os.str();
 }
 
 namespace {
 
-enum Reason : uint8_t { kKept, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated };
+enum Reason : uint8_t { kKept, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid };
 
 struct Record {
   uint8_t reason = kOutsideImage;
+  bool signal = false;  // a channel above the noise floor
   float wi[3], wo[3], geom, y[3];
 };
 
@@ -140,7 +146,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       if (!e.mask.empty()) {
         for (int dy = 0; dy < 2; ++dy)
           for (int dx = 0; dx < 2; ++dx)
-            if (mask.at(x0 + dx, y0 + dy, 0) <= 0) return void(r.reason = kOutsideMask);
+            if (!(mask.at(x0 + dx, y0 + dy, 0) > 0)) return void(r.reason = kOutsideMask);  // NaN: outside
       }
       const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
       const double cos_i = n.dot(ls.wi);
@@ -149,8 +155,11 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         return void(r.reason = kShadowed);
       for (int dy = 0; dy < 2; ++dy)
         for (int dx = 0; dx < 2; ++dx)
-          for (int c = 0; c < img.channels; ++c)
-            if (img.at(x0 + dx, y0 + dy, c) >= img.saturation_level) return void(r.reason = kSaturated);
+          for (int c = 0; c < img.channels; ++c) {
+            const float v = img.at(x0 + dx, y0 + dy, c);
+            if (!(v >= 0) || !std::isfinite(v)) return void(r.reason = kInvalid);
+            if (v >= img.saturation_level) return void(r.reason = kSaturated);
+          }
       const Frame frame = Frame::FromNormalTangent(n, tx.tangent);
       const Vec3 wi = frame.ToLocal(ls.wi), wo = frame.ToLocal(to_eye);
       // Measurement model (samples.h): value_c / exposure = f_c * cos_i * E_c;
@@ -163,14 +172,23 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         r.wo[c] = static_cast<float>(wo[c]);
       }
       r.geom = static_cast<float>(cos_i * s);
+      // A finite pixel can still give a non-finite sample (extreme light or
+      // exposure values); no fit may ever see one.
+      if (!std::isfinite(r.geom) || !(r.geom > 0) || !std::isfinite(r.y[0]) || !std::isfinite(r.y[1]) ||
+          !std::isfinite(r.y[2]) || !(r.y[0] >= 0 && r.y[1] >= 0 && r.y[2] >= 0))
+        return void(r.reason = kInvalid);
+      float peak = 0;
+      for (int c = 0; c < 3; ++c) peak = std::max(peak, img.Bilinear(px.x(), px.y(), std::min(c, img.channels - 1)));
+      r.signal = peak > options.noise_floor;
       r.reason = kKept;
     }, 256);
-    long kept = 0;
+    long kept = 0, signal = 0;
+    const long invalid_before = st.invalid;
     for (long t = 0; t < nt; ++t) {
       const Record& r = recs[t];
       ++st.candidates;
       switch (r.reason) {
-        case kKept: ++kept; per_image[i].emplace_back(static_cast<int32_t>(t), r); break;
+        case kKept: ++kept; signal += r.signal; per_image[i].emplace_back(static_cast<int32_t>(t), r); break;
         case kOutsideImage: ++st.outside_image; break;
         case kBackFacing: ++st.back_facing; break;
         case kOccluded: ++st.occluded; break;
@@ -178,14 +196,31 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         case kUnlit: ++st.unlit; break;
         case kShadowed: ++st.shadowed; break;
         case kSaturated: ++st.saturated; break;
+        case kInvalid: ++st.invalid; break;
       }
     }
+    if (kept > 0 && signal == 0)
+      st.warnings.push_back(Msg(view, ": all ", kept, " kept samples are below the noise floor ", options.noise_floor,
+                                " (black photo? check its light and exposure)"));
+    st.signal += signal;
+    if (st.invalid > invalid_before)
+      st.warnings.push_back(Msg(view, ": ", st.invalid - invalid_before,
+                                " samples rejected for non-finite or negative pixel values (a broken HDR merge?)"));
     st.kept += kept;
     st.kept_per_image.push_back(kept);
     progress.Tick();
   }
   progress.Finish();
-  if (st.kept == 0) throw Error(Msg("no usable samples in ", scene.images.size(), " views: ", st.Report()));
+  // Named after the scene: a wrong camera, pose or light there is the usual cause.
+  if (st.kept == 0)
+    throw Error(Msg(scene.Resolve("scene.json"), ": no usable samples in ", scene.images.size(),
+                    " views (check cameras, poses, lights and masks): ", st.Report()));
+  if (st.signal == 0 || double(st.signal) < options.min_signal_fraction * double(st.kept))
+    throw Error(Msg(scene.Resolve("scene.json"), ": no signal: only ", st.signal, " of ", st.kept, " kept samples in ", scene.images.size(),
+                    " views are above the noise floor (pixel value ", options.noise_floor,
+                    "); the photos are (nearly) black. Check the exposure (scene.json images[].exposure and the "
+                    "camera's), that the lights were on and match scene.json lights[], and that the masks cover "
+                    "the object. ", st.Report(false)));
 
   // Counting sort by texel (stable in image order), into structure of arrays.
   SampleSet& ss = out.samples;

@@ -6,7 +6,13 @@
 //   the grazing limit, visible from the camera (Embree occlusion ray),
 //   inside the mask (all four pixels of the bilinear footprint), lit (facing
 //   the light at more than the grazing limit, not shadowed: occlusion ray),
-//   and not saturated (no channel of the footprint at the file's maximum).
+//   valid (every channel of the footprint finite and >= 0: NaN/Inf or
+//   negative values, as a broken HDR merge writes them, are rejected and
+//   counted, never passed to a fit), and not saturated (no channel of the
+//   footprint at the file's maximum).
+// A capture without signal (fewer than `min_signal_fraction` of the kept
+// samples above `noise_floor`: lights off, lens cap, far too short an
+// exposure, masks on the background) is an error saying what to check.
 #pragma once
 #include <string>
 #include <vector>
@@ -26,6 +32,11 @@ struct GatherOptions {
   double texel_footprint = 1.0;
   int max_atlas_size = 1024;
   double min_cos = 0.15;        // grazing limit for view and light directions (cos of the angle)
+  // Pixel value (integer files normalised to [0, 1]; float files as stored,
+  // 1 = a well exposed white) below which a sample carries no signal.
+  double noise_floor = 2.0 / 255;
+  // Least share of kept samples above the noise floor for a usable capture.
+  double min_signal_fraction = 0.01;
   int threads = 0;
   bool progress = true;
   void Check() const;
@@ -34,9 +45,11 @@ struct GatherOptions {
 struct GatherStats {
   long texels = 0, candidates = 0, kept = 0;
   long outside_image = 0, back_facing = 0, occluded = 0, outside_mask = 0, unlit = 0, shadowed = 0,
-       saturated = 0;
+       saturated = 0, invalid = 0;
+  long signal = 0;  // kept samples with a channel above the noise floor
   std::vector<long> kept_per_image;
-  std::string Report() const;
+  std::vector<std::string> warnings;  // e.g. views without signal
+  std::string Report(bool with_warnings = true) const;
 };
 
 struct GatherResult {
@@ -48,7 +61,8 @@ struct GatherResult {
 };
 
 // Throws Error naming the view for a photo or mask whose size disagrees with
-// its camera, and when no usable sample remains (with the rejection counts).
+// its camera, when no usable sample remains (with the rejection counts), and
+// when the kept samples carry no signal (see above).
 GatherResult Gather(const Scene& scene, const GatherOptions& options);
 
 // Median over (vertex, view) pairs of the surface length one pixel covers

@@ -56,6 +56,9 @@ nlohmann::json ReadJsonFile(const std::string& path) {
   } catch (const nlohmann::json::parse_error& e) {
     // e.byte is the 1-based position where parsing failed.
     throw Error(Msg(path, ": invalid JSON at byte ", e.byte, ": ", e.what()));
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. out_of_range for a number too large for a double (1e999).
+    throw Error(Msg(path, ": invalid JSON: ", e.what()));
   }
 }
 

@@ -50,6 +50,11 @@ Image ReadImage(const std::string& path, ColorSpace space) {
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(Msg(path, ": cannot read image: ", OIIO::geterror()));
   const OIIO::ImageSpec& spec = in->spec();
+  // A corrupt header must not allocate gigabytes (or overflow the size).
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 || spec.height > 65536 ||
+      spec.nchannels > 64 || double(spec.width) * spec.height * spec.nchannels > double(1L << 29))
+    throw Error(Msg(path, ": unsupported image size ", spec.width, "x", spec.height, " with ", spec.nchannels,
+                    " channels (corrupt header?)"));
   Image img(spec.width, spec.height, spec.nchannels);
   // Integer formats are normalised to [0, 1] by OpenImageIO's conversion to float.
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data()))
@@ -143,8 +148,9 @@ void WriteLabelImage(const std::string& path, const Image& labels) {
 
 float Image::Bilinear(double px, double py, int c) const {
   // Pixel (i, j) has its centre at (i + 0.5, j + 0.5).
-  const double x = std::clamp(px - 0.5, 0.0, double(width - 1));
-  const double y = std::clamp(py - 0.5, 0.0, double(height - 1));
+  // NaN coordinates (from degenerate geometry) read the corner, never outside.
+  const double x = std::isnan(px) ? 0.0 : std::clamp(px - 0.5, 0.0, double(width - 1));
+  const double y = std::isnan(py) ? 0.0 : std::clamp(py - 0.5, 0.0, double(height - 1));
   const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
   const double tx = x - x0, ty = y - y0;

@@ -11,11 +11,14 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "core/error.h"
 #include "io/json_field.h"
+#include "io/output_folder.h"
 #include "io/scene.h"
 
 namespace svbrdf {
@@ -30,6 +33,17 @@ void CheckMap(const Image& img, int width, int height, int channels, const std::
   if (img.width != width || img.height != height || img.channels != channels)
     throw Error(Msg(where, ": expected ", width, "x", height, " with ", channels, " channel(s), got ", img.width, "x",
                     img.height, " with ", img.channels));
+}
+
+// Every value finite and in [lo, hi] (weights must not be negative or NaN:
+// the BRDF they mix must stay positive).
+void CheckValues(const Image& img, float lo, float hi, const std::string& where) {
+  for (size_t i = 0; i < img.pixels.size(); ++i)
+    if (!(img.pixels[i] >= lo && img.pixels[i] <= hi)) {
+      const size_t px = i / img.channels;
+      throw Error(Msg(where, ": value ", img.pixels[i], " at pixel (", px % img.width, ", ", px / img.width,
+                      ") is outside [", lo, ", ", hi, "] or not finite"));
+    }
 }
 
 BasisMaterial BasisFromField(const JsonField& f) {
@@ -58,7 +72,12 @@ BasisMaterial BasisFromField(const JsonField& f) {
     if (!known) params.FailAt(key, Msg("unknown parameter for ", label, " (expected ", expected, ")"));
   }
   if (!missing.empty()) f.FailAt("params", Msg("missing parameter(s) ", missing, " for ", label));
-  for (const ParamInfo& p : infos) b.params.push_back(params.Get<double>(p.name));
+  for (const ParamInfo& p : infos) {
+    b.params.push_back(params.Get<double>(p.name));
+    // Outside the model's documented range a BRDF can turn negative or infinite.
+    if (!(b.params.back() >= p.lower && b.params.back() <= p.upper))
+      params.FailAt(p.name, Msg(b.params.back(), " is outside the range [", p.lower, ", ", p.upper, "] of ", label));
+  }
   return b;
 }
 
@@ -107,10 +126,12 @@ Material LoadMaterial(const std::string& dir) {
   }
   if (!m.mesh.HasUVs()) root.FailAt("mesh", "mesh has no texture coordinates (the maps need them)");
   const Vec2 res = root.Get<Vec2>("resolution");
+  // Range first: converting an out-of-range double to int is undefined.
+  if (!(res.x() >= 1 && res.y() >= 1 && res.x() <= 65536 && res.y() <= 65536) || res.x() != std::floor(res.x()) ||
+      res.y() != std::floor(res.y()))
+    root.FailAt("resolution", Msg("expected [width, height] of integers in [1, 65536], got [", res.x(), ", ", res.y(), "]"));
   m.width = static_cast<int>(res.x());
   m.height = static_cast<int>(res.y());
-  if (m.width != res.x() || m.height != res.y() || m.width <= 0 || m.height <= 0)
-    root.FailAt("resolution", "expected [width, height] of positive integers");
 
   const std::vector<JsonField> basis = root.Items("basis");
   if (basis.empty()) root.FailAt("basis", "expected at least one basis material");
@@ -127,12 +148,20 @@ Material LoadMaterial(const std::string& dir) {
     try {
       m.weights.push_back(ReadImage(path));
       CheckMap(m.weights.back(), m.width, m.height, 3, path);
+      // Mixing weights are fractions (times a brightness near 1); 1e4 is far beyond any fit.
+      CheckValues(m.weights.back(), 0, 1e4f, path);
     } catch (const Error& e) {
       w.Fail(e.what());
     }
   }
   LoadOptionalMap(root, dir, "normal_map", 3, m.width, m.height, false, &m.normal_map);
   LoadOptionalMap(root, dir, "confidence", 1, m.width, m.height, false, &m.confidence);
+  try {
+    if (m.normal_map.width) CheckValues(m.normal_map, -1.001f, 1.001f, (fs::path(dir) / root.Get<std::string>("normal_map")).string());
+    if (m.confidence.width) CheckValues(m.confidence, 0, 1, (fs::path(dir) / root.Get<std::string>("confidence")).string());
+  } catch (const Error& e) {
+    throw Error(Msg(file, ": ", e.what()));
+  }
   LoadOptionalMap(root, dir, "material_id", 1, m.width, m.height, true, &m.material_id);
   if (root.Has("info")) m.extra = j["info"];
   return m;
@@ -151,9 +180,8 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
   if (m.confidence.width) CheckMap(m.confidence, m.width, m.height, 1, where + ": confidence");
   if (m.material_id.width) CheckMap(m.material_id, m.width, m.height, 1, where + ": material_id");
 
-  const fs::path tmp = Msg(dir.string(), ".tmp-", getpid());
-  std::error_code ec;
-  fs::remove_all(tmp, ec);
+  OutputFolder out(dir.string());
+  const fs::path tmp = out.path();
   try {
     fs::create_directories(tmp / "weights");
     json j = {{"format", kMaterialFormat}, {"mesh", m.mesh_file}, {"resolution", {m.width, m.height}}};
@@ -183,16 +211,11 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
     }
     if (!m.extra.is_null()) j["info"] = m.extra;
     WriteFileAtomic((tmp / "material.json").string(), j.dump(2) + "\n");
-    // Replace the destination only once everything is written.
-    fs::remove_all(dir);
-    fs::rename(tmp, dir);
   } catch (const fs::filesystem_error& e) {
-    fs::remove_all(tmp, ec);
     throw Error(Msg(where, ": cannot write material folder: ", e.what()));
-  } catch (...) {
-    fs::remove_all(tmp, ec);
-    throw;
   }
+  // Replace the destination only once everything is written.
+  out.Commit();
 }
 
 }  // namespace svbrdf

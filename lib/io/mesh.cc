@@ -118,10 +118,14 @@ void Mesh::ComputeNormals() {
 
 void Mesh::Validate(const std::string& context) const {
   if (faces.empty()) throw Error(Msg(context, ": mesh has no faces"));
+  // Finite is not enough: products of coordinates beyond these overflow in
+  // normals and ray tests (metres; texture coordinates tile a few times at most).
   for (size_t i = 0; i < positions.size(); ++i)
-    if (!positions[i].allFinite()) throw Error(Msg(context, ": vertex ", i, " is not finite"));
+    if (!positions[i].allFinite() || positions[i].cwiseAbs().maxCoeff() > 1e9)
+      throw Error(Msg(context, ": vertex ", i, " is not finite or beyond 1e9 (", positions[i].transpose(), ")"));
   for (size_t i = 0; i < texcoords.size(); ++i)
-    if (!texcoords[i].allFinite()) throw Error(Msg(context, ": texture coordinate ", i, " is not finite"));
+    if (!texcoords[i].allFinite() || texcoords[i].cwiseAbs().maxCoeff() > 1e4)
+      throw Error(Msg(context, ": texture coordinate ", i, " is not finite or beyond 1e4 (", texcoords[i].transpose(), ")"));
   if (!face_uvs.empty() && face_uvs.size() != faces.size())
     throw Error(Msg(context, ": ", face_uvs.size(), " UV faces for ", faces.size(), " faces"));
   bool any_area = false;

@@ -1,6 +1,7 @@
 // PLY reader: ascii and binary_little_endian; vertex x y z with optional
 // per-vertex texture coordinates, face vertex_indices lists. Other elements
 // and properties are read and skipped.
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <sstream>
@@ -158,6 +159,12 @@ Mesh LoadPly(const std::string& path) {
     const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
     if (is_vertex && (ix < 0 || iy < 0 || iz < 0)) throw Error(Msg(path, ": PLY vertex lacks x, y or z"));
     if (is_vertex) uvs = iu >= 0 && iv >= 0;
+    // Every item takes at least one byte: a larger count is a corrupt header
+    // (and must not drive a loop of billions of empty items).
+    if (e.properties.empty()) continue;
+    if (e.count > static_cast<long>(data.size()))
+      throw Error(Msg(path, ": element ", e.name, " claims ", e.count, " items, more than the file's ", data.size(),
+                      " bytes can hold"));
     std::vector<double> values;
     for (long item = 0; item < e.count; ++item) {
       std::vector<int> polygon;
@@ -174,6 +181,9 @@ Mesh LoadPly(const std::string& path) {
         const bool indices = is_face && (prop.name == "vertex_indices" || prop.name == "vertex_index");
         for (int k = 0; k < int(n); ++k) {
           const double v = body.Read(prop.type, what);
+          // Range first: converting an out-of-range double to int is undefined.
+          if (indices && !(v >= 0 && v < 2147483647.0 && v == std::floor(v)))
+            throw Error(Msg(path, ": bad vertex index ", v, " in ", what));
           if (indices) polygon.push_back(static_cast<int>(v));
         }
       }

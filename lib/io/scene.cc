@@ -45,6 +45,11 @@ Camera ParseCamera(const JsonField& f) {
   c.model = CameraModelFromName(f.Get<std::string>("model"), f.WhereAt("model"));
   c.width = PositiveInt(f, "width");
   c.height = PositiveInt(f, "height");
+  // Beyond any sensor; a corrupt size must not allocate gigabytes per image.
+  if (c.width > 65536) f.FailAt("width", Msg("expected at most 65536 pixels, got ", c.width));
+  if (c.height > 65536) f.FailAt("height", Msg("expected at most 65536 pixels, got ", c.height));
+  if (long(c.width) * c.height > (1L << 27))
+    f.FailAt("height", Msg(c.width, "x", c.height, " is more than 134 megapixels"));
   c.params = f.Get<std::vector<double>>("params");
   const int n = CameraModelNumParams(c.model);
   if (static_cast<int>(c.params.size()) != n)

@@ -115,8 +115,15 @@ IesProfile ParseIes(const std::string& text, const std::string& context) {
   r.Next("lumens per lamp");  // -1 for absolute photometry; not needed for candela
   IesProfile p;
   p.multiplier = r.Next("candela multiplier");
+  if (p.multiplier < 0) throw Error(Msg(context, ": candela multiplier ", p.multiplier, " is negative"));
   const int nv = r.NextCount("number of vertical angles", 1);
   const int nh = r.NextCount("number of horizontal angles", 1);
+  // 8 more header numbers, the angles and the table must all be there (checked
+  // before allocating nv x nh values from two corrupt counts).
+  const size_t needed = size_t(8) + nv + nh + size_t(nv) * nh;
+  if (r.Remaining() < needed)
+    throw Error(Msg(context, ": file truncated: ", nv, " vertical x ", nh, " horizontal angles need ", needed,
+                    " more values, found ", r.Remaining()));
   const int type = r.NextCount("photometric type", 1);
   if (type != 1) throw Error(Msg(context, ": photometric type ", type, " is not supported (only type C = 1)"));
   r.Next("units type");
@@ -135,12 +142,12 @@ IesProfile ParseIes(const std::string& text, const std::string& context) {
   p.candela.resize(size_t(nv) * nh);
   for (int h = 0; h < nh; ++h)
     for (int v = 0; v < nv; ++v) {
-      const double cd = r.Next(Msg("candela value ", h * nv + v + 1, " of ", nv * nh));
+      const double cd = r.Next("candela value");
       if (cd < 0) throw Error(Msg(context, ": candela value ", h * nv + v + 1, " is negative"));
       p.candela[size_t(h) * nv + v] = cd * p.multiplier;
     }
   if (r.Remaining() != 0)
-    throw Error(Msg(context, ": ", r.Remaining(), " extra value(s) after the ", nv * nh,
+    throw Error(Msg(context, ": ", r.Remaining(), " extra value(s) after the ", size_t(nv) * nh,
                     " candela values (wrong angle counts?)"));
   return p;
 }

@@ -165,7 +165,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                         {"outside_image", g.stats.outside_image}, {"back_facing", g.stats.back_facing},
                         {"occluded", g.stats.occluded},  {"outside_mask", g.stats.outside_mask},
                         {"unlit", g.stats.unlit},        {"shadowed", g.stats.shadowed},
-                        {"saturated", g.stats.saturated}};
+                        {"saturated", g.stats.saturated}, {"invalid_pixel", g.stats.invalid}};
+  summary["warnings"] = g.stats.warnings;
   summary["clusters"] = est.basis.size();
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["heldout_rmse"] = est.heldout_rmse;

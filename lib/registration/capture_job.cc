@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/progress.h"
+#include "io/output_folder.h"
 #include "io/scene.h"
 #include "registration/board_bundle.h"
 #include "registration/silhouette.h"
@@ -310,9 +311,8 @@ nlohmann::json RunCapture(const CaptureJob& job) {
 
   // 5. Write the capture.
   timer.Start("write");
-  const fs::path final_dir(job.out_dir);
-  const fs::path tmp = final_dir.string() + Msg(".tmp-", getpid());
-  fs::remove_all(tmp);
+  OutputFolder out(job.out_dir);  // complete or absent, also on errors and signals
+  const fs::path tmp = out.path();
   for (const char* d : {"images", "masks", "saturation", "report"}) fs::create_directories(tmp / d);
   Mesh world_mesh = mesh;
   for (Vec3& p : world_mesh.positions) p = reg.world_from_object * p;
@@ -354,9 +354,7 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   for (const auto& s : timer.stages()) stages[s.name] = s.seconds;
   report["seconds"] = stages;
   WriteFileAtomic((tmp / "report" / "capture_report.json").string(), report.dump(2) + "\n");
-  fs::remove_all(final_dir);
-  if (!final_dir.parent_path().empty()) fs::create_directories(final_dir.parent_path());
-  fs::rename(tmp, final_dir);
+  out.Commit();
   if (job.progress) std::fprintf(stderr, "%s", timer.Report().c_str());
   return report;
 }

@@ -1,5 +1,6 @@
 #include "relight/relight.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -158,6 +159,21 @@ void WriteRendered(const std::string& path, const Image& color, ColorSpace integ
 int RelightScene(const Material& material, const Scene& scene, const std::string& out_dir,
                  const RelightOptions& options) {
   options.Check();
+  // Outputs go under out_dir only: a scene naming "/abs/x.exr" or
+  // "../x.exr" must not write (or overwrite) files elsewhere.
+  auto inside = [](const std::string& rel) {
+    const fs::path p = fs::path(rel).lexically_normal();
+    return !rel.empty() && p.is_relative() && !p.empty() && *p.begin() != "..";
+  };
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    const ImageEntry& e = scene.images[i];
+    if (!inside(e.file))
+      throw Error(Msg(scene.Resolve("scene.json"), ": images[", i, "].file: \"", e.file,
+                      "\" must be a relative path inside the scene folder to be relit"));
+    if (!e.mask.empty() && !inside(e.mask))
+      throw Error(Msg(scene.Resolve("scene.json"), ": images[", i, "].mask: \"", e.mask,
+                      "\" must be a relative path inside the scene folder to be relit"));
+  }
   RayTracer tracer(material.mesh);
   MaterialShader shader(material);
   std::unique_ptr<EnvironmentMap> env;
@@ -174,6 +190,10 @@ int RelightScene(const Material& material, const Scene& scene, const std::string
     const ImageEntry& entry = scene.images[i];
     RenderedView view =
         env ? RenderViewEnvironment(tracer, shader, scene, i, *env, options) : RenderView(tracer, shader, scene, i, options);
+    for (float v : view.color.pixels)
+      if (!std::isfinite(v))
+        throw Error(Msg(scene.Resolve("scene.json"), ": images[", i, "] (", entry.file,
+                        "): rendered radiance is not finite (light intensity or exposure out of range?)"));
     const fs::path file = fs::path(out_dir) / entry.file;
     fs::create_directories(file.parent_path());
     WriteRendered(file.string(), view.color, scene.images_color_space);

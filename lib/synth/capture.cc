@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "io/output_folder.h"
 #include "relight/relight.h"
 #include "synth/shapes.h"
 
@@ -318,9 +319,8 @@ void WriteCaptureImages(const SynthOptions& o, const Material& gt, const Scene& 
 SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
   o.Check();
   const auto t0 = std::chrono::steady_clock::now();
-  const fs::path final_dir(out_dir);
-  const fs::path tmp = final_dir.string() + Msg(".tmp-", getpid());
-  fs::remove_all(tmp);
+  OutputFolder out(out_dir);
+  const fs::path tmp = out.path();
   fs::create_directories(tmp / "lights");
 
   Mesh mesh = o.mesh_file.empty() ? MakeShape(o.object, o.detail) : LoadShapeFromFile(o.mesh_file, o.material.texture_size);
@@ -375,9 +375,7 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
     SaveScene(held, (tmp / "heldout" / "scene.json").string());
   }
 
-  fs::remove_all(final_dir);
-  if (!final_dir.parent_path().empty()) fs::create_directories(final_dir.parent_path());
-  fs::rename(tmp, final_dir);
+  out.Commit();
   report.images = o.num_images;
   report.saturated_fraction = object_pixels > 0 ? saturated / object_pixels : 0.0;
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/rng.h"
+#include "io/output_folder.h"
 #include "io/scene.h"
 #include "relight/relight.h"
 #include "synth/shapes.h"
@@ -105,9 +106,8 @@ struct World {
 
 RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& out_dir) {
   o.Check();
-  const fs::path final_dir(out_dir);
-  const fs::path tmp = final_dir.string() + Msg(".tmp-", getpid());
-  fs::remove_all(tmp);
+  OutputFolder out(out_dir);  // complete or absent, also on errors and signals
+  const fs::path tmp = out.path();
   for (const char* d : {"photos", "masks", "truth/images", "truth/masks", "truth/heldout/images", "truth/heldout/masks"})
     fs::create_directories(tmp / d);
   Rng rng(StreamSeed(o.seed, 0x7a3));
@@ -370,9 +370,7 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
   for (const Rigid3& p : truth.cam_from_world) tj["cam_from_world"].push_back(PoseJson(p));
   WriteFileAtomic((tmp / "truth" / "truth.json").string(), tj.dump(2) + "\n");
 
-  fs::remove_all(final_dir);
-  if (!final_dir.parent_path().empty()) fs::create_directories(final_dir.parent_path());
-  fs::rename(tmp, final_dir);
+  out.Commit();
   return truth;
 }
 
