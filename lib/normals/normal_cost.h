@@ -30,6 +30,10 @@ struct TexelSample {
   double wi[3], wo[3];
   double geom;
   double y[3];
+  // Added to (a, b) for this sample: a neighbour's sample pooled into a
+  // texel's fit is predicted under the neighbour's normal relative to the
+  // texel's (0 for the texel's own samples).
+  double offset[2] = {0, 0};
 };
 
 // A basis material with the texel's mixing weights per channel.
@@ -46,8 +50,9 @@ constexpr int kMaxModelParams = 64;
 // the ratio cos_i(n) / cos_i(n0). Returns false when the light or the viewer
 // is below the tilted surface (the sample then predicts black).
 template <class T>
-bool TiltedDirections(const T* ab, const TexelSample& s, Vec3T<T>* wi, Vec3T<T>* wo, T* cos_ratio) {
+bool TiltedDirections(const T* ab_texel, const TexelSample& s, Vec3T<T>* wi, Vec3T<T>* wo, T* cos_ratio) {
   using std::sqrt;
+  const T ab[2] = {ab_texel[0] + s.offset[0], ab_texel[1] + s.offset[1]};
   const T inv = T(1) / sqrt(ab[0] * ab[0] + ab[1] * ab[1] + T(1));
   const Vec3T<T> n(ab[0] * inv, ab[1] * inv, inv);
   // Tangent: (1, 0, 0) made orthogonal to n; |t|^2 = 1 - n_x^2 > 0 since n_z > 0.
@@ -79,9 +84,12 @@ void PredictBasis(const WeightedBasis& basis, const TexelSample& s, const T* ab,
 
 // Residuals prediction - measurement (3 channels) of one sample under the
 // texel's weighted basis materials; parameter block: (a, b).
+// `scale` weighs the sample (residuals times scale): a neighbour's sample
+// pooled into the texel's fit counts less than the texel's own.
 struct NormalSampleCost {
   const TexelSample* sample;
   const std::vector<WeightedBasis>* basis;
+  double scale = 1.0;
 
   template <class T>
   bool operator()(const T* ab, T* residual) const {
@@ -91,7 +99,7 @@ struct NormalSampleCost {
       PredictBasis(b, *sample, ab, rgb);
       for (int c = 0; c < 3; ++c) sum[c] += b.w[c] * rgb[c];
     }
-    for (int c = 0; c < 3; ++c) residual[c] = sum[c] - sample->y[c];
+    for (int c = 0; c < 3; ++c) residual[c] = scale * (sum[c] - sample->y[c]);
     return true;
   }
 };

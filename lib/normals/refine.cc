@@ -28,6 +28,7 @@ void NormalOptions::Check() const {
   };
   if (mode != "on" && mode != "off" && mode != "force") fail("--normals", mode, "on, off or force");
   if (min_samples < 3) fail("min_samples", min_samples, ">= 3");
+  if (!(neighbour_weight >= 0 && neighbour_weight <= 1)) fail("neighbour_weight", neighbour_weight, "in [0, 1]");
   if (!(prior_tilt > 0 && std::isfinite(prior_tilt))) fail("prior_tilt", prior_tilt, "> 0");
   if (!std::isfinite(noise)) fail("noise", noise, "finite (< 0 = estimated)");
   if (!(robust_sigmas >= 0)) fail("robust_sigmas", robust_sigmas, ">= 0");
@@ -62,7 +63,13 @@ std::vector<char> HeldOutImages(int num_images, double holdout_fraction, uint64_
 
 namespace {
 
-constexpr double kPriorSamples = 1.0;  // weight of the clustering's weights in the re-solve, in samples
+// Weight of the clustering's weights in the re-solve, in samples. The
+// clustering's weights were fitted on every photo, held-out ones included,
+// with the mesh normals: in the decision's fits on training photos they would
+// leak the held-out photos into the mesh-normal arm, so there they only
+// regularise (a hundredth of a sample).
+constexpr double kPriorSamples = 1.0;
+constexpr double kDecisionPriorSamples = 0.01;
 
 // Per-texel state of the alternation: tilt (a, b) and mixing weights.
 struct State {
@@ -70,18 +77,40 @@ struct State {
   std::vector<float> w;       // K*3 per texel
 };
 
+// A texel's samples for its normal fit: its own and, in its frame, its
+// 8 neighbours' (each with the texel it came from and its weight).
+struct Pooled {
+  std::vector<TexelSample> samples;
+  std::vector<int> source;      // 0 = the texel, j > 0 = its (j-1)-th neighbour
+  std::vector<double> weight;
+};
+
 class Refiner {
  public:
   Refiner(const SampleSet& s, const Atlas& atlas, const SvbrdfEstimate& est, const NormalOptions& o)
       : s_(s), atlas_(atlas), est_(est), o_(o), K_(int(est.basis.size())), nt_(s.num_texels) {
-    if (est.num_texels != nt_ || est.weights.size() != size_t(nt_) * K_ * 3)
-      throw Error(Msg("normal refinement: the estimate has ", est.num_texels, " texels, the samples ", nt_));
+    if (est.num_texels != nt_ || est.weights.size() != size_t(nt_) * K_ * 3 || int(atlas.texels.size()) < nt_)
+      throw Error(Msg("normal refinement: the estimate has ", est.num_texels, " texels, the samples ", nt_,
+                      ", the atlas ", atlas.texels.size()));
     for (const BasisMaterial& b : est.basis) normals::CheckParamCount(b.spec);
     int num_images = 0;
     for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
     held_image_ = HeldOutImages(num_images, o.holdout_fraction, o.seed);
     max_ab_ = std::tan(o.max_tilt_deg * kPi / 180.0);
+    frames_.resize(nt_);
+    neighbours_.resize(nt_);
     support_.resize(nt_);
+    for (int t = 0; t < nt_; ++t) {
+      const Texel& tx = atlas.texels[t];
+      frames_[t] = Frame::FromNormalTangent(tx.normal, tx.tangent);
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = tx.x + dx, y = tx.y + dy;
+          if ((dx || dy) && x >= 0 && y >= 0 && x < atlas.width && y < atlas.height && atlas.At(x, y) >= 0 &&
+              atlas.At(x, y) < nt_)
+            neighbours_[t].push_back(atlas.At(x, y));
+        }
+    }
     for (int t = 0; t < nt_; ++t) {
       // Materials of the texel and its 8 neighbours: a tilted normal must not
       // let a material in that the clustering kept out of the neighbourhood.
@@ -91,14 +120,7 @@ class Refiner {
           for (int c = 0; c < 3; ++c) used[k] |= est.weights[(size_t(u) * K_ + k) * 3 + c] > 0;
       };
       mark(t);
-      const Texel& tx = atlas.texels[t];
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = tx.x + dx, y = tx.y + dy;
-          if ((dx || dy) && x >= 0 && y >= 0 && x < atlas.width && y < atlas.height && atlas.At(x, y) >= 0 &&
-              atlas.At(x, y) < nt_)
-            mark(atlas.At(x, y));
-        }
+      for (int u : neighbours_[t]) mark(u);
       for (int k = 0; k < K_; ++k)
         if (used[k]) support_[t].push_back(k);
     }
@@ -108,16 +130,64 @@ class Refiner {
   std::vector<TexelSample> Samples(int t, int which) const {
     std::vector<TexelSample> out;
     for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
-      const bool held = held_image_[s_.image[i]];
-      if ((which == 0 && held) || (which == 1 && !held)) continue;
+      if (!Wanted(i, which)) continue;
       TexelSample ts;
-      for (int c = 0; c < 3; ++c) {
-        ts.wi[c] = s_.wi[c][i], ts.wo[c] = s_.wo[c][i], ts.y[c] = s_.y[c][i];
-      }
+      for (int c = 0; c < 3; ++c) ts.wi[c] = s_.wi[c][i], ts.wo[c] = s_.wo[c][i], ts.y[c] = s_.y[c][i];
       ts.geom = s_.geom[i];
       out.push_back(ts);
     }
     return out;
+  }
+
+  // Texel t's samples and its neighbours' in t's mesh frame. A texel alone
+  // has a handful of samples, too few for two tilt and several weight
+  // unknowns (a photo's three channels share one shading term); bumps
+  // wider than a texel tilt the neighbours alike, so their samples, at
+  // `neighbour_weight`, make the fit determined at the price of a slight
+  // smoothing of the normal field (a 3 x 3 kernel).
+  // `tilt_of(u)` is texel u's current tilt in its own frame: a neighbour's
+  // samples are predicted under the neighbour's normal relative to the
+  // texel's (so that, as passes repeat, the pooling follows the normal field
+  // instead of flattening it).
+  template <class TiltOf>
+  Pooled PooledSamples(int t, int which, const TiltOf& tilt_of) const {
+    Pooled p;
+    p.samples = Samples(t, which);
+    p.source.assign(p.samples.size(), 0);
+    p.weight.assign(p.samples.size(), 1.0);
+    const Frame& ft = frames_[t];
+    const Vec2 ab_t = tilt_of(t);
+    for (size_t j = 0; j < neighbours_[t].size(); ++j) {
+      const int u = neighbours_[t][j];
+      const Frame& fu = frames_[u];
+      // The neighbour's normal as a tilt in t's frame, relative to t's tilt.
+      const Vec2 ab_u = tilt_of(u);
+      const Vec3 n_u = ft.ToLocal(fu.ToWorld(Vec3(ab_u.x(), ab_u.y(), 1.0)));
+      const Vec2 offset = n_u.z() > 0.1 ? Vec2(n_u.x() / n_u.z() - ab_t.x(), n_u.y() / n_u.z() - ab_t.y()) : Vec2::Zero();
+      for (int64_t i = s_.texel_begin[u]; i < s_.texel_begin[u + 1]; ++i) {
+        if (!Wanted(i, which)) continue;
+        const Vec3 wi_u(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo_u(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
+        const Vec3 wi = ft.ToLocal(fu.ToWorld(wi_u)), wo = ft.ToLocal(fu.ToWorld(wo_u));
+        if (wi.z() <= 0.05 || wo.z() <= 0.05 || wi_u.z() <= 0) continue;
+        TexelSample ts;
+        for (int c = 0; c < 3; ++c) ts.wi[c] = wi[c], ts.wo[c] = wo[c], ts.y[c] = s_.y[c][i];
+        ts.geom = s_.geom[i] / wi_u.z() * wi.z();  // the light's s, times cos_i of t's mesh normal
+        ts.offset[0] = offset.x(), ts.offset[1] = offset.y();
+        p.samples.push_back(ts);
+        p.source.push_back(int(j) + 1);
+        p.weight.push_back(o_.neighbour_weight);
+      }
+    }
+    return p;
+  }
+
+  // Sample count of texel t and its weighted pooled count.
+  void Counts(int t, int which, int64_t* own, double* pooled) const {
+    *own = 0;
+    for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) *own += Wanted(i, which);
+    *pooled = double(*own);
+    for (int u : neighbours_[t])
+      for (int64_t i = s_.texel_begin[u]; i < s_.texel_begin[u + 1]; ++i) *pooled += o_.neighbour_weight * Wanted(i, which);
   }
 
   std::vector<WeightedBasis> Basis(int t, const float* w) const {
@@ -132,18 +202,22 @@ class Refiner {
     return out;
   }
 
-  // Levenberg-Marquardt for the tilt (a, b) of one texel, weights fixed.
-  void SolveNormal(const std::vector<TexelSample>& fit, const std::vector<WeightedBasis>& basis, double sigma,
+  // Levenberg-Marquardt for the tilt (a, b) of one texel, weights fixed;
+  // basis[j] holds the weighted materials of source j of the pooled samples.
+  void SolveNormal(const Pooled& fit, const std::vector<std::vector<WeightedBasis>>& basis, double sigma,
                    double* ab) const {
-    if (basis.empty() || fit.empty()) return;
+    if (basis[0].empty() || fit.samples.empty()) return;
     ceres::Problem::Options po;
     po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(po);
     ceres::CauchyLoss loss(std::max(1e-12, o_.robust_sigmas * sigma));
-    for (const TexelSample& ts : fit)
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<NormalSampleCost, 3, 2>(new NormalSampleCost{&ts, &basis}),
-          o_.robust_sigmas > 0 ? &loss : nullptr, ab);
+    for (size_t i = 0; i < fit.samples.size(); ++i) {
+      const std::vector<WeightedBasis>& b = basis[fit.source[i]];
+      if (b.empty()) continue;
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<NormalSampleCost, 3, 2>(
+                                   new NormalSampleCost{&fit.samples[i], &b, std::sqrt(fit.weight[i])}),
+                               o_.robust_sigmas > 0 ? &loss : nullptr, ab);
+    }
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<TiltPrior, 2, 2>(new TiltPrior{sigma / o_.prior_tilt}),
                              nullptr, ab);
     for (int j = 0; j < 2; ++j) {
@@ -164,31 +238,32 @@ class Refiner {
       ab[0] = start[0], ab[1] = start[1];
   }
 
-  // Mixing weights by NNLS with the normal (a, b), over the texel's support,
-  // with a weak prior towards w0 (the clustering's weights).
-  void SolveWeights(int t, const std::vector<TexelSample>& fit, const double* ab, const float* w0, float* w) const {
+  // Mixing weights by NNLS with the normal (a, b) on the texel's own
+  // samples, over its support, with a weak prior towards w0 (the clustering's).
+  void SolveWeights(int t, const std::vector<TexelSample>& fit, const double* ab, const float* w0, double prior,
+                    float* w) const {
     const std::vector<int>& sup = support_[t];
     const int m = int(sup.size());
+    if (m == 0 || fit.empty()) {
+      std::copy(w0, w0 + K_ * 3, w);
+      return;
+    }
     std::fill(w, w + K_ * 3, 0.0f);
-    if (m == 0 || fit.empty()) return;
     Eigen::MatrixXd AtA[3], Atb[3];
     for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(m, m), Atb[c] = Eigen::MatrixXd::Zero(m, 1);
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> P(m, 3);
+    std::vector<WeightedBasis> single(m);
+    for (int j = 0; j < m; ++j) single[j].spec = &est_.basis[sup[j]].spec, single[j].params = est_.basis[sup[j]].params;
     for (const TexelSample& ts : fit) {
-      for (int j = 0; j < m; ++j) {
-        WeightedBasis b;
-        b.spec = &est_.basis[sup[j]].spec;
-        b.params = est_.basis[sup[j]].params;
-        PredictBasis(b, ts, ab, P.row(j).data());
-      }
+      for (int j = 0; j < m; ++j) PredictBasis(single[j], ts, ab, P.row(j).data());
       for (int c = 0; c < 3; ++c) {
         AtA[c] += P.col(c) * P.col(c).transpose();
         Atb[c] += P.col(c) * ts.y[c];
       }
     }
     const double n = double(fit.size());
-    auto prior = [&](Eigen::MatrixXd& A, Eigen::VectorXd b, const Eigen::VectorXd& target) {
-      const double lambda = kPriorSamples * A.trace() / (m * n) + 1e-12;
+    auto solve = [&](Eigen::MatrixXd A, Eigen::VectorXd b, const Eigen::VectorXd& target) {
+      const double lambda = prior * A.trace() / (m * n) + 1e-12;
       A.diagonal().array() += lambda;
       b += lambda * target;
       return NnlsNormal(A, b);
@@ -197,20 +272,19 @@ class Refiner {
       for (int c = 0; c < 3; ++c) {
         Eigen::VectorXd target(m);
         for (int j = 0; j < m; ++j) target[j] = w0[sup[j] * 3 + c];
-        const Eigen::VectorXd x = prior(AtA[c], Atb[c].col(0), target);
+        const Eigen::VectorXd x = solve(AtA[c], Atb[c].col(0), target);
         for (int j = 0; j < m; ++j) w[sup[j] * 3 + c] = float(x[j]);
       }
     } else {
-      Eigen::MatrixXd A = AtA[0] + AtA[1] + AtA[2];
       Eigen::VectorXd target(m);
       for (int j = 0; j < m; ++j) target[j] = (w0[sup[j] * 3] + w0[sup[j] * 3 + 1] + w0[sup[j] * 3 + 2]) / 3.0;
-      const Eigen::VectorXd x = prior(A, (Atb[0] + Atb[1] + Atb[2]).col(0), target);
+      const Eigen::VectorXd x = solve(AtA[0] + AtA[1] + AtA[2], (Atb[0] + Atb[1] + Atb[2]).col(0), target);
       for (int j = 0; j < m; ++j)
         for (int c = 0; c < 3; ++c) w[sup[j] * 3 + c] = float(x[j]);
     }
   }
 
-  // Squared residuals (per channel) of samples under (a, b) and weights w.
+  // Residuals (per channel) of the texel's own samples under (a, b) and weights w.
   void Residuals(int t, const std::vector<TexelSample>& samples, const double* ab, const float* w,
                  std::vector<float>* abs_residuals, double* sse) const {
     const std::vector<WeightedBasis> basis = Basis(t, w);
@@ -224,7 +298,8 @@ class Refiner {
     }
   }
 
-  // Robust noise estimate: 1.4826 x median |residual| over the fitted samples of `texels`.
+  // Robust noise estimate: 1.4826 x the median |residual| over the own
+  // samples (kind `which`) of `texels`.
   double Sigma(const std::vector<int>& texels, int which, const State& st) const {
     if (o_.noise >= 0) return std::max(o_.noise, 1e-12);
     std::vector<std::vector<float>> per(texels.size());
@@ -241,29 +316,48 @@ class Refiner {
 
   // Alternates normals and weights on `texels` (state index j = position in
   // `texels`), fitting samples of kind `which` (0 training, 2 all). With
-  // `refine` false only the weights are solved (mesh normals). Returns sigma.
+  // `refine` false only the weights are solved (mesh normals). Each pass
+  // solves all normals from the previous weights, then all weights (Jacobi:
+  // the result does not depend on the thread count). Returns sigma.
   double Run(const std::vector<int>& texels, int which, bool refine, const std::vector<Vec2>* start, State* st,
              Progress* progress) const {
     const long n = long(texels.size());
+    std::vector<int> slot(nt_, -1);
+    for (long j = 0; j < n; ++j) slot[texels[j]] = int(j);
+    // Weights of texel u in the current state (the clustering's when u is not refined).
+    auto weights_of = [&](int u) -> const float* {
+      return slot[u] >= 0 ? &st->w[size_t(slot[u]) * K_ * 3] : Est(u);
+    };
+    auto solve_weights = [&] {
+      ParallelFor(n, o_.threads, [&](long j) {
+        const int t = texels[j];
+        SolveWeights(t, Samples(t, which), &st->ab[2 * j], Est(t), which == 2 ? kPriorSamples : kDecisionPriorSamples,
+                     &st->w[size_t(j) * K_ * 3]);
+      }, 64);
+    };
     // Start: mesh normals (or `start`), weights re-solved from the
     // clustering's (the same solver for both arms of the decision).
-    ParallelFor(n, o_.threads, [&](long j) {
-      const int t = texels[j];
-      st->ab[2 * j] = refine && start ? (*start)[t].x() : 0.0;
-      st->ab[2 * j + 1] = refine && start ? (*start)[t].y() : 0.0;
-      SolveWeights(t, Samples(t, which), &st->ab[2 * j], Est(t), &st->w[size_t(j) * K_ * 3]);
-    }, 64);
+    for (long j = 0; j < n; ++j) {
+      st->ab[2 * j] = refine && start ? (*start)[texels[j]].x() : 0.0;
+      st->ab[2 * j + 1] = refine && start ? (*start)[texels[j]].y() : 0.0;
+    }
+    solve_weights();
     double sigma = Sigma(texels, which, *st);
     if (!refine) return sigma;
     for (int it = 0; it < o_.iterations; ++it) {
+      const std::vector<double> ab_before = st->ab;  // read by neighbours while st->ab is written
+      auto tilt_of = [&](int u) {
+        return slot[u] >= 0 ? Vec2(ab_before[2 * slot[u]], ab_before[2 * slot[u] + 1]) : Vec2::Zero();
+      };
       ParallelFor(n, o_.threads, [&](long j) {
         const int t = texels[j];
-        const std::vector<TexelSample> fit = Samples(t, which);
-        float* w = &st->w[size_t(j) * K_ * 3];
-        SolveNormal(fit, Basis(t, w), sigma, &st->ab[2 * j]);
-        SolveWeights(t, fit, &st->ab[2 * j], Est(t), w);
+        const Pooled fit = PooledSamples(t, which, tilt_of);
+        std::vector<std::vector<WeightedBasis>> basis{Basis(t, weights_of(t))};
+        for (int u : neighbours_[t]) basis.push_back(Basis(u, weights_of(u)));
+        SolveNormal(fit, basis, sigma, &st->ab[2 * j]);
         if (progress) progress->Tick();
       }, 16);
+      solve_weights();
       sigma = Sigma(texels, which, *st);
     }
     return sigma;
@@ -284,8 +378,10 @@ class Refiner {
 
   const float* Est(int t) const { return &est_.weights[size_t(t) * K_ * 3]; }
   int K() const { return K_; }
-  int num_texels() const { return nt_; }
-  bool IsHeld(int64_t i) const { return held_image_[s_.image[i]]; }
+  bool Wanted(int64_t i, int which) const {
+    const bool held = held_image_[s_.image[i]];
+    return which == 2 || (which == 1) == held;
+  }
 
  private:
   const SampleSet& s_;
@@ -294,6 +390,8 @@ class Refiner {
   const NormalOptions& o_;
   const int K_, nt_;
   std::vector<char> held_image_;
+  std::vector<Frame> frames_;
+  std::vector<std::vector<int>> neighbours_;
   std::vector<std::vector<int>> support_;
   double max_ab_ = 1.0;
 };
@@ -321,11 +419,14 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
   // enough training and some held-out samples for the decision.
   std::vector<int> texels, candidates;
   for (int t = 0; t < nt; ++t) {
-    int64_t train = 0, held = 0;
-    for (int64_t i = samples.texel_begin[t]; i < samples.texel_begin[t + 1]; ++i) (r.IsHeld(i) ? held : train)++;
-    if (train + held >= o.min_samples) texels.push_back(t);
+    int64_t own_all, own_train, own_held;
+    double pooled_all, pooled_train, pooled_held;
+    r.Counts(t, 2, &own_all, &pooled_all);
+    r.Counts(t, 0, &own_train, &pooled_train);
+    r.Counts(t, 1, &own_held, &pooled_held);
+    if (own_all >= 1 && pooled_all >= o.min_samples) texels.push_back(t);
     // The decision needs texels that can be fitted on training photos alone.
-    if (train >= o.min_samples && held > 0) candidates.push_back(t);
+    if (own_train >= 1 && pooled_train >= o.min_samples && own_held > 0) candidates.push_back(t);
   }
   if (texels.empty()) return out;
   // A seeded subset for the decision (hash order, then texel order).

@@ -5,10 +5,14 @@
 // bumps, scratches and mis-registered facets tilt the true shading normal, and
 // a tilted normal moves highlights and shading that no mixing weight can move.
 //
-// Per texel with at least `min_samples` samples (others keep the mesh normal):
+// Per texel with at least `min_samples` samples, counting its 8 neighbours'
+// at `neighbour_weight` (others keep the mesh normal):
 //  1. Normal: minimise over (a, b) (tangent-plane parametrisation, normal_cost.h)
-//        sum_i rho(|pred_i(a, b) - y_i|^2) + (sigma / tau)^2 (a^2 + b^2)
-//     with Ceres (Levenberg-Marquardt, autodiff), the texel's weights fixed.
+//        sum_i v_i rho(|pred_i(a, b) - y_i|^2) + (sigma / tau)^2 (a^2 + b^2)
+//     with Ceres (Levenberg-Marquardt, autodiff), the weights fixed; the
+//     samples i are the texel's own (v = 1) and its 8 neighbours' expressed in
+//     its frame with their own weights (v = neighbour_weight): a texel sees a
+//     handful of photos, too few alone for a normal and its weights.
 //     rho: Cauchy loss at `robust_sigmas` sigma (samples that the model cannot
 //     explain: misregistered pixels, interreflections). The prior is the MAP
 //     term of a Gaussian prior on tan(tilt) with std tau = `prior_tilt`,
@@ -44,12 +48,13 @@ struct NormalOptions {
   // "on": refine, keep if the held-out error drops; "off": skip;
   // "force": refine and keep whatever the held-out error says.
   std::string mode = "on";
-  int min_samples = 4;          // samples a texel needs for its own normal (the prior keeps the rest in check)
+  int min_samples = 8;          // pooled samples (own + neighbour_weight x neighbours') a texel needs for its normal
+  double neighbour_weight = 0.5;  // weight of the 8 neighbours' samples in a texel's normal fit, in [0, 1]
   double prior_tilt = 0.35;     // tau: prior std of tan(tilt) per tangent axis (0.35 ~ 19 degrees), > 0
   double noise = -1.0;          // sigma of y per channel; < 0: estimated from the residuals
   double robust_sigmas = 3.0;   // Cauchy loss scale in sigmas; 0 = plain least squares
   double max_tilt_deg = 60.0;   // bound of the tilt per tangent axis, in (0, 85]
-  int iterations = 2;           // normal + weights passes, >= 1
+  int iterations = 3;           // normal + weights passes, >= 1
   bool recluster = true;        // when kept: cluster again on reoriented samples, refine again (pipeline)
   int max_iterations = 20;      // Levenberg-Marquardt iterations per texel
   long decision_texels = 4000;  // texels used for the held-out decision (a seeded subset), >= 100
