@@ -29,7 +29,10 @@ struct GatherOptions {
   // Meshes without texture coordinates get a chart atlas (atlas/charts.h)
   // whose texel is `texel_footprint` pixel footprints at the median view
   // (1 = one texel per pixel), at most `max_atlas_size` texels a side.
-  double texel_footprint = 1.0;
+  // 2 (a texel covers about 2x2 pixels of the median view) gives each texel
+  // ~4x the samples of 1: on the tiny capture without UVs 45.3 dB held-out
+  // against 41.7 dB at 1 and 43.4 dB at 3 (with UVs: 46.1 dB).
+  double texel_footprint = 2.0;
   int max_atlas_size = 1024;
   double min_cos = 0.15;        // grazing limit for view and light directions (cos of the angle)
   // Pixel value (integer files normalised to [0, 1]; float files as stored,

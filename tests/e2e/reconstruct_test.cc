@@ -160,12 +160,12 @@ TEST(Reconstruct, SingleLobeTruthGetsNoExtraLobes) {
 TEST(Reconstruct, MeshWithoutTextureCoordinatesGetsItsOwnAtlas) {
   // The no-UV regression: the same capture without texture coordinates
   // (chart atlas at the photos' resolution) close to the one with them.
-  // Measured: 42.4 vs 45.1 dB; the issue's 1 dB is not reached yet, the
-  // assertion holds the 3 dB of the issue's scan-vs-sphere criterion.
+  // Measured (texel = 2 pixel footprints): 45.26 vs 46.08 dB; the issue asks
+  // for 1 dB.
   const Outcome with_uvs = RunCase("uv", SynthPreset("tiny"));
   const Outcome r = RunCase("nouv", SynthPreset("tiny"), {}, true);
   EXPECT_EQ(r.clusters, 3);
-  EXPECT_GE(r.psnr_mean, with_uvs.psnr_mean - 3.0);
+  EXPECT_GE(r.psnr_mean, with_uvs.psnr_mean - 1.0);
 }
 
 // Disabled: not yet verified (the ground-truth chart atlas needs a larger
