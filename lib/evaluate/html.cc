@@ -7,20 +7,6 @@
 
 namespace svbrdf {
 
-std::string HtmlEscape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 std::string Base64(const std::string& bytes) {
   static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -42,10 +28,10 @@ std::string Base64(const std::string& bytes) {
 
 HtmlPage::HtmlPage(std::string title) : title_(std::move(title)) {}
 
-void HtmlPage::Heading(const std::string& text) { body_ += "<h2>" + HtmlEscape(text) + "</h2>\n"; }
-void HtmlPage::Paragraph(const std::string& text) { body_ += "<p>" + HtmlEscape(text) + "</p>\n"; }
-void HtmlPage::Warning(const std::string& text) { body_ += "<p class=\"warn\">&#9888; " + HtmlEscape(text) + "</p>\n"; }
-void HtmlPage::Preformatted(const std::string& text) { body_ += "<pre>" + HtmlEscape(text) + "</pre>\n"; }
+void HtmlPage::Heading(const std::string& text) { body_ += "<h2>" + MarkupEscape(text) + "</h2>\n"; }
+void HtmlPage::Paragraph(const std::string& text) { body_ += "<p>" + MarkupEscape(text) + "</p>\n"; }
+void HtmlPage::Warning(const std::string& text) { body_ += "<p class=\"warn\">&#9888; " + MarkupEscape(text) + "</p>\n"; }
+void HtmlPage::Preformatted(const std::string& text) { body_ += "<pre>" + MarkupEscape(text) + "</pre>\n"; }
 
 void HtmlPage::Figures(const std::vector<std::pair<std::string, std::string>>& files, int max_width_px) {
   body_ += "<div class=\"row\">\n";
@@ -53,7 +39,7 @@ void HtmlPage::Figures(const std::vector<std::pair<std::string, std::string>>& f
     std::string ext = std::filesystem::path(file).extension().string();
     const std::string mime = ext == ".jpg" || ext == ".jpeg" ? "image/jpeg" : "image/png";
     body_ += "<figure><img style=\"max-width:" + std::to_string(max_width_px) + "px\" src=\"data:" + mime + ";base64," +
-             Base64(ReadFileBytes(file)) + "\" alt=\"" + HtmlEscape(caption) + "\"><figcaption>" + HtmlEscape(caption) +
+             Base64(ReadFileBytes(file)) + "\" alt=\"" + MarkupEscape(caption) + "\"><figcaption>" + MarkupEscape(caption) +
              "</figcaption></figure>\n";
   }
   body_ += "</div>\n";
@@ -61,24 +47,24 @@ void HtmlPage::Figures(const std::vector<std::pair<std::string, std::string>>& f
 
 void HtmlPage::Table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
   body_ += "<table><tr>";
-  for (const auto& h : header) body_ += "<th>" + HtmlEscape(h) + "</th>";
+  for (const auto& h : header) body_ += "<th>" + MarkupEscape(h) + "</th>";
   body_ += "</tr>\n";
   for (const auto& r : rows) {
     body_ += "<tr>";
-    for (const auto& c : r) body_ += "<td>" + HtmlEscape(c) + "</td>";
+    for (const auto& c : r) body_ += "<td>" + MarkupEscape(c) + "</td>";
     body_ += "</tr>\n";
   }
   body_ += "</table>\n";
 }
 
 std::string HtmlPage::ToString() const {
-  return "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" + HtmlEscape(title_) +
+  return "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" + MarkupEscape(title_) +
          "</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1400px}"
          "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 8px;text-align:left;"
          "font-size:90%}.row{display:flex;flex-wrap:wrap;gap:12px}figure{margin:0}"
          "img{image-rendering:pixelated;width:100%}figcaption{font-size:85%;color:#444}.warn{color:#a40}"
          "</style></head><body>\n<h1>" +
-         HtmlEscape(title_) + "</h1>\n" + body_ + "</body></html>\n";
+         MarkupEscape(title_) + "</h1>\n" + body_ + "</body></html>\n";
 }
 
 void HtmlPage::Save(const std::string& path) const { WriteFileAtomic(path, ToString()); }

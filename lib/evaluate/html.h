@@ -25,7 +25,6 @@ class HtmlPage {
   std::string title_, body_;
 };
 
-std::string HtmlEscape(const std::string& text);
 std::string Base64(const std::string& bytes);
 
 }  // namespace svbrdf

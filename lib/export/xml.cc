@@ -1,22 +1,10 @@
 #include "export/xml.h"
 
+#include "io/files.h"
+
 #include <charconv>
 
 namespace svbrdf {
-
-std::string XmlEscape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 std::string XmlNumber(double v) {
   char buf[32];
@@ -33,7 +21,7 @@ std::string XmlElement::ToString(int indent) const {
     out += pad + "<!-- " + c + " -->\n";
   }
   out += pad + "<" + tag;
-  for (const auto& [k, v] : attributes) out += " " + k + "=\"" + XmlEscape(v) + "\"";
+  for (const auto& [k, v] : attributes) out += " " + k + "=\"" + MarkupEscape(v) + "\"";
   if (children.empty()) return out + "/>\n";
   out += ">\n";
   for (const XmlElement& c : children) out += c.ToString(indent + 2);

@@ -29,7 +29,6 @@ struct XmlElement {
   std::string ToString(int indent = 0) const;
 };
 
-std::string XmlEscape(const std::string& text);
 // Shortest decimal text that reads back as the same double.
 std::string XmlNumber(double v);
 

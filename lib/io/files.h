@@ -12,5 +12,7 @@ std::string TempSiblingPath(const std::string& path);
 void CommitTemp(const std::string& tmp, const std::string& path);
 // Whole file as bytes; throws Error naming the file.
 std::string ReadFileBytes(const std::string& path);
+// Escapes & < > " for XML and HTML text and attribute values.
+std::string MarkupEscape(const std::string& text);
 
 }  // namespace svbrdf
