@@ -30,16 +30,6 @@ double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return Eigen::AngleAxisd(a * b.conjugate()).angle() * 180 / kPi;
 }
 
-BoardSpec TestBoard() {
-  BoardSpec b;
-  b.pattern = BoardPattern::kCharuco;
-  b.cols = 6;
-  b.rows = 5;
-  b.square = 0.06;
-  b.marker = 0.045;
-  return b;
-}
-
 // One raw set shared by all tests of this file (rendered once).
 struct RawSet {
   std::string dir;
@@ -54,7 +44,7 @@ const RawSet& Raw() {
     auto* s = new RawSet;
     s->dir = (fs::temp_directory_path() / Msg("svbrdf_raw_", getpid())).string();
     RawPhotoOptions o;
-    const BoardTexture tex = DrawBoard(TestBoard(), 48);
+    const BoardTexture tex = DrawBoard(DefaultRawBoard(), 48);
     o.board_texture = tex.image;
     o.texture_from_board = tex.texture_from_board;
     o.board_json = {{"pattern", "charuco"}, {"cols", 6}, {"rows", 5}, {"square", 0.06}, {"marker", 0.045}};
@@ -87,7 +77,7 @@ TEST(Registration, ProjectTMatchesCameraProject) {
 TEST(Registration, IntrinsicsFromSyntheticBoardViews) {
   const RawSet& raw = Raw();
   CalibrateOptions o;
-  o.board = TestBoard();
+  o.board = DefaultRawBoard();
   o.progress = false;
   const CalibrationResult r = CalibrateIntrinsics(raw.bracket0, o);
   const Camera& t = raw.truth.camera;
@@ -114,7 +104,7 @@ TEST(Registration, IntrinsicsFromSyntheticBoardViews) {
 TEST(Registration, BoardPosesPnpAndBundle) {
   const RawSet& raw = Raw();
   CalibrateOptions o;
-  o.board = TestBoard();
+  o.board = DefaultRawBoard();
   o.progress = false;
   const CalibrationResult cal = CalibrateIntrinsics(raw.bracket0, o);
   std::vector<Rigid3> poses;

@@ -61,12 +61,7 @@ void RegisterCapture(CLI::App& app, Runner* run) {
   s->add_option("--seed", a->seed, "random seed");
   s->callback([a, run] {
     *run = [a] {
-      BoardSpec b;
-      b.pattern = BoardPattern::kCharuco;
-      b.cols = 6;
-      b.rows = 5;
-      b.square = 0.06;
-      b.marker = 0.045;
+      const BoardSpec b = DefaultRawBoard();
       const BoardTexture tex = DrawBoard(b, 48);
       RawPhotoOptions o;
       o.board_texture = tex.image;

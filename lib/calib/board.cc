@@ -204,4 +204,14 @@ BoardTexture DrawBoard(const BoardSpec& board, int pps) {
   return out;
 }
 
+BoardSpec DefaultRawBoard() {
+  BoardSpec b;
+  b.pattern = BoardPattern::kCharuco;
+  b.cols = 6;
+  b.rows = 5;
+  b.square = 0.06;
+  b.marker = 0.045;
+  return b;
+}
+
 }  // namespace svbrdf

@@ -67,6 +67,10 @@ struct BoardTexture {
 };
 BoardTexture DrawBoard(const BoardSpec& board, int pixels_per_square);
 
+// The ChArUco board of `synth-raw` and its tests: 6x5 squares of 6 cm,
+// 4.5 cm markers.
+BoardSpec DefaultRawBoard();
+
 // 8-bit grey tone mapping used for detection and pictures: scaled so that the
 // 99th percentile is white, then sRGB-like gamma for linear input.
 Image ToDisplayGrey(const Image& image, bool linear_input);
