@@ -1,5 +1,6 @@
 #include "registration/capture_job.h"
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <unistd.h>
@@ -216,7 +217,11 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       if (photos[i].mask.empty()) throw Error(Msg(ctx, ": photos[", i, "]: masks are \"given\" but the photo has no mask"));
       v.mask = ReadImage(path(photos[i].mask));
     } else if (mask_mode == "grabcut") {
-      v.mask = GrabCutMask(photos[i].hdr.radiance, RenderSilhouette(mesh, rough, camera, photos[i].cam_from_world));
+      // The undecided band must cover the rough placement's error (cm: tens
+      // of pixels); 4 % of the image diagonal.
+      const int margin = std::max(6, int(0.04 * std::hypot(camera.width, camera.height)));
+      v.mask = GrabCutMask(photos[i].hdr.radiance, RenderSilhouette(mesh, rough, camera, photos[i].cam_from_world),
+                           margin);
     } else {
       throw Error(Msg(ctx, ": masks: expected \"given\" or \"grabcut\", got \"", mask_mode, "\""));
     }
