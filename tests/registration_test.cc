@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <unistd.h>
 
 #include "calib/board.h"
@@ -21,6 +22,7 @@
 #include "relight/relight.h"
 #include "registration/board_bundle.h"
 #include "registration/capture_job.h"
+#include "registration/colmap_sfm.h"
 #include "registration/project.h"
 #include "registration/silhouette.h"
 #include "synth/raw_photos.h"
@@ -102,6 +104,51 @@ TEST(RegistrationMath, ProjectTMatchesCameraProject) {
   double px[2];
   ProjectT(c.model, c.params.data(), x.data(), px);
   EXPECT_NEAR((Vec2(px[0], px[1]) - c.Project(x)).norm(), 0.0, 1e-9);
+}
+
+// A COLMAP text model in its own frame and units (a similarity away from the
+// board frame), as `colmap model_converter` writes it, placed back in metres
+// by the images whose board pose is known.
+TEST(RegistrationMath, ColmapModelPlacedByBoardPoses) {
+  std::vector<Rigid3> truth;
+  for (int i = 0; i < 6; ++i)
+    truth.push_back(Rigid3::LookAt(Vec3(0.5 * std::cos(i), 0.5 * std::sin(i), -0.4 - 0.03 * i), Vec3(0.1, 0.05, 0), Vec3(0, 0, -1)));
+  const double s = 0.37;  // x_board = s * R * x_colmap + T
+  const Eigen::Quaterniond R(Eigen::AngleAxisd(0.7, Vec3(1, -2, 0.5).normalized()));
+  const Vec3 T(0.2, -0.1, 0.3);
+  std::string tmpl = (fs::temp_directory_path() / "svbrdf_colmap_XXXXXX").string();
+  ASSERT_TRUE(mkdtemp(tmpl.data()));
+  {
+    std::ofstream cams(tmpl + "/cameras.txt"), ims(tmpl + "/images.txt");
+    cams << "# Camera list\n1 PINHOLE 480 360 500 500 240 180\n";
+    ims << "# Image list\n";
+    ims.precision(17);
+    for (size_t i = 0; i < truth.size(); ++i) {
+      const Eigen::Quaterniond q = truth[i].rotation * R;
+      const Vec3 t = (truth[i].rotation * T + truth[i].translation) / s;
+      ims << i + 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x() << " " << t.y() << " "
+          << t.z() << " 1 img" << i << ".png\n\n";
+    }
+  }
+  const ColmapModel model = ReadColmapText(tmpl);
+  fs::remove_all(tmpl);
+  std::map<std::string, Rigid3> known;  // the board seen in 4 of the 6 images
+  for (int i = 0; i < 4; ++i) known["img" + std::to_string(i) + ".png"] = truth[i];
+  const ColmapToBoard align = AlignColmapToBoard(model, known);
+  EXPECT_EQ(align.matched, 4);
+  EXPECT_NEAR(align.scale, s, 1e-9);
+  EXPECT_LT(align.centre_rms_m, 1e-9);
+  for (size_t i = 0; i < truth.size(); ++i) {  // including the two without the board
+    const Rigid3 p = align.CamFromBoard(model.images[i].cam_from_world);
+    EXPECT_LT(AngleDeg(p.rotation, truth[i].rotation), 1e-6);
+    EXPECT_LT((p.translation - truth[i].translation).norm(), 1e-9);
+  }
+  const ColmapToBoard by_distance = ScaleColmapByDistance(
+      model, "img0.png", "img3.png", (truth[0].CentreInWorld() - truth[3].CentreInWorld()).norm());
+  EXPECT_NEAR(by_distance.scale, s, 1e-9);
+  known.erase("img0.png");
+  known.erase("img1.png");
+  EXPECT_THROW(AlignColmapToBoard(model, known), Error);  // two images cannot place a model
 }
 
 TEST_F(Registration, IntrinsicsFromSyntheticBoardViews) {
