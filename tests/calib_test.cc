@@ -13,6 +13,7 @@
 #include "calib/hdr.h"
 #include "calib/intrinsics.h"
 #include "core/error.h"
+#include "io/exif.h"
 
 namespace svbrdf {
 namespace {
@@ -98,6 +99,23 @@ TEST(Calib, DrawnBoardsAreDetectedWhereTheirMapSays) {
       worst = std::max(worst, (tex.texture_from_board * Vec3(obj[det.ids[i]].x(), obj[det.ids[i]].y(), 1) -
                                det.points[i]).norm());
     EXPECT_LT(worst, 0.15) << BoardPatternName(pattern);
+  }
+}
+
+// Exposure per photo from EXIF (opencv-doc's board.jpg: 1/100 s, f/6.3, ISO 100).
+TEST(Calib, ExposureFromExif) {
+  const std::string photo = Msg(kSampleDir, "/board.jpg");
+  if (!fs::exists(photo)) GTEST_SKIP() << "opencv-doc is not installed";
+  const ExifExposure e = ReadExifExposure(photo);
+  EXPECT_NEAR(e.seconds, 0.01, 1e-6);
+  EXPECT_NEAR(e.f_number, 6.3, 1e-4);
+  EXPECT_NEAR(e.iso, 100, 1e-6);
+  EXPECT_NEAR(e.Relative(), 0.01 / (6.3 * 6.3), 1e-8);
+  try {  // a PNG without EXIF: the error names the file and the way out
+    ReadExifExposure(Msg(kSampleDir, "/../../../../../../", SVBRDF_SOURCE_DIR, "/no_such_file.png"));
+    FAIL();
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("no_such_file.png"), std::string::npos);
   }
 }
 

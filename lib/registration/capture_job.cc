@@ -13,6 +13,7 @@
 #include "calib/pnp.h"
 #include "calib/segment.h"
 #include "core/error.h"
+#include "io/exif.h"
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "io/output_folder.h"
@@ -107,7 +108,11 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     const std::string pc = Msg(ctx, ": photos[", i, "]");
     Photo p;
     p.files = Field<std::vector<std::string>>(photos_j[i], "files", pc);
-    p.exposures = Field<std::vector<double>>(photos_j[i], "exposures", pc);
+    if (photos_j[i].contains("exposures")) {
+      p.exposures = Field<std::vector<double>>(photos_j[i], "exposures", pc);
+    } else {  // from EXIF: exposure time x ISO / f-number^2 of each bracket
+      for (const auto& f : p.files) p.exposures.push_back(ReadExifExposure(path(f)).Relative());
+    }
     p.light = Field<int>(photos_j[i], "light", pc);
     if (photos_j[i].contains("mask")) p.mask = Field<std::string>(photos_j[i], "mask", pc);
     if (p.files.empty() || p.files.size() != p.exposures.size())
