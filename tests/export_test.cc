@@ -403,5 +403,54 @@ TEST(MitsubaExport, WritesSceneFilesWithExactTextureSums) {
   fs::remove_all(dir);
 }
 
+
+TEST(MitsubaExport, MapsConductorsAndCoatsToTheirPlugins) {
+  // Three basis materials: gold (exact index), an F82 conductor and a coat.
+  Material m = TwoMaterialSphere(32);
+  m.basis = {Basis("conductor-ggx", {{"eta_r", 0.14}, {"eta_g", 0.43}, {"eta_b", 1.38}, {"kappa_r", 3.697},
+                                     {"kappa_g", 2.455}, {"kappa_b", 1.914}, {"roughness", 0.25}}),
+             Basis("conductor-beckmann-f82", {{"f0_r", 0.9}, {"f0_g", 0.9}, {"f0_b", 0.9}, {"f82_tint_r", 0.8},
+                                              {"f82_tint_g", 0.8}, {"f82_tint_b", 0.8}, {"roughness", 0.1}}),
+             Basis("coated-beckmann", {{"rd_r", 0.6}, {"rd_g", 0.1}, {"rd_b", 0.05}, {"roughness", 0.2}, {"ior", 1.4}})};
+  Image w2 = m.weights[0];
+  for (float& v : w2.pixels) v = 0.5f;
+  m.weights.push_back(w2);
+  const std::string dir = TempDir("mitsuba_models");
+  const nlohmann::json report = ExportMitsuba(m, nullptr, MitsubaExportOptions{}, dir);
+  EXPECT_EQ(report["parts"], 4);  // diffuse + 3 lobes
+  const std::string object = ReadFileBytes(dir + "/object.xml");
+  auto has = [&](const std::string& s) { return object.find(s) != std::string::npos; };
+  EXPECT_TRUE(has("<rgb name=\"eta\" value=\"0.14, 0.43, 1.38\"/>")) << object;
+  EXPECT_TRUE(has("<rgb name=\"k\" value=\"3.697, 2.455, 1.914\"/>"));
+  EXPECT_TRUE(has("<bsdf type=\"roughplastic\">"));
+  EXPECT_TRUE(has("<float name=\"int_ior\" value=\"1.4\"/>"));
+  EXPECT_TRUE(has("<float name=\"ext_ior\" value=\"1\"/>"));  // Mitsuba's default is air, 1.000277
+  EXPECT_TRUE(has("<boolean name=\"nonlinear\" value=\"true\"/>"));
+  EXPECT_TRUE(has("textures/m2_base.exr"));
+  // The F82 conductor: a roughconductor whose index keeps F0 = 0.9.
+  const nlohmann::json& lobe = report["basis"][1]["lobe"];
+  EXPECT_EQ(lobe["plugin"], "roughconductor");
+  EXPECT_EQ(lobe["distribution"], "beckmann");
+  EXPECT_NEAR(brdf::ConductorF0(lobe["eta"][0].get<double>(), lobe["k"][0].get<double>()), 0.9, 1e-9);
+  EXPECT_EQ(report["basis"][0]["exact"], true);
+  EXPECT_EQ(report["basis"][2]["lobe"]["plugin"], "roughplastic");
+  // Base texture: with weight w and 4 parts, d / (1 - d F_int) = 4 w g, g the form's coupling.
+  const NearestForm coat = MapToNearestForm(m.basis[2], Pairs());
+  const double f_int = coat.plastic.internal_reflectance;
+  const Image base = ReadImage(dir + "/textures/m2_base.exr"), spec = ReadImage(dir + "/textures/m2_specular.exr");
+  for (int c = 0; c < 3; ++c) {
+    const double d = base.at(3, 3, c), g = coat.base[c] / (1 - coat.base[c] * f_int);
+    EXPECT_NEAR(d / (1 - d * f_int), 4 * 0.5 * g, 1e-5);
+    EXPECT_NEAR(spec.at(3, 3, c), 4 * 0.5, 1e-6);  // the coat's specular_reflectance is the weight alone
+  }
+  // as_rendered/ holds our models: conductor, conductor (exact index), coated.
+  const nlohmann::json as = nlohmann::json::parse(ReadFileBytes(dir + "/as_rendered/material.json"));
+  EXPECT_EQ(as["basis"][0]["label"], "conductor-ggx");
+  EXPECT_EQ(as["basis"][1]["label"], "conductor-beckmann");
+  EXPECT_EQ(as["basis"][2]["label"], "coated-beckmann");
+  EXPECT_NEAR(as["basis"][2]["params"]["rd_r"].get<double>(), 0.6, 1e-9);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace svbrdf
