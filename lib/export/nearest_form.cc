@@ -192,13 +192,13 @@ BasisMaterial NearestForm::AsBasis(const std::string& name) const {
       }
       break;
     case Lobe::kRoughPlastic: {
-      // Invert BaseForCoupling twice: Mitsuba's coupling g, then our rd with rd / (1 - rd F_int) = g.
+      // Invert BaseForCoupling twice: Mitsuba's coupling / base_scale = our g, then our rd with rd / (1 - rd F_int) = g.
       b.spec.family = Family::kCoated;
       b.spec.distribution = distribution;
       const double f_int = brdf::DielectricInternalDiffuseReflectance(ior);
       Rgb rd_ours;
       for (int c = 0; c < 3; ++c) {
-        const double g = base[c] / (1 - base[c] * plastic.internal_reflectance);
+        const double g = base[c] / (1 - base[c] * plastic.internal_reflectance) / base_scale;
         rd_ours[c] = BaseForCoupling(g, f_int);
       }
       b.params = {rd_ours[0], rd_ours[1], rd_ours[2], alpha, ior};
@@ -268,13 +268,25 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
       f.ior = Param(b, "ior");
       f.plastic = RoughPlastic::Make(dist, f.alpha, f.ior);
       {
+        // Least-squares scale of Mitsuba's base term t(mu_i) t(mu_o) onto ours
+        // (1 - F(mu_i)) (1 - F(mu_o)) over the direction pairs (the coats are equal).
+        double tt = 0, to = 0;
+        for (size_t j = 0; j < d.size(); ++j) {
+          const double w = d.weight[j] * d.wi[j].z() * d.wi[j].z();
+          const double mi = f.plastic.Transmittance(d.wi[j].z()) * f.plastic.Transmittance(d.wo[j].z());
+          const double ours = (1 - brdf::FresnelDielectric(d.wi[j].z(), f.ior)) * (1 - brdf::FresnelDielectric(d.wo[j].z(), f.ior));
+          tt += w * mi * mi;
+          to += w * mi * ours;
+        }
+        f.base_scale = tt > 0 ? to / tt : 1.0;
         const Rgb rd = ParamRgb(b, "rd");
         const double f_int = brdf::DielectricInternalDiffuseReflectance(f.ior);
         for (int c = 0; c < 3; ++c)
-          f.base[c] = BaseForCoupling(rd[c] / (1 - rd[c] * f_int), f.plastic.internal_reflectance);
+          f.base[c] = BaseForCoupling(f.base_scale * rd[c] / (1 - rd[c] * f_int), f.plastic.internal_reflectance);
       }
-      f.how = Msg("nearest: roughplastic (nonlinear); same coat, base through the rough coat's transmittance (F_int ",
-                  f.plastic.internal_reflectance, " vs ours ", brdf::DielectricInternalDiffuseReflectance(f.ior), ")");
+      f.how = Msg("nearest: roughplastic (nonlinear); same coat, base through the rough coat's transmittance, scaled by ",
+                  f.base_scale, " (least squares; F_int ", f.plastic.internal_reflectance, " vs ours ",
+                  brdf::DielectricInternalDiffuseReflectance(f.ior), ")");
       break;
     default:
       f = FitForm(b, d);

@@ -26,7 +26,9 @@
 //                                             base differs (rough-coat transmittance and
 //                                             internal reflectance, rough_plastic.h); the
 //                                             base albedo is set so that the internal
-//                                             bounces 1/(1 - rd F_int) match ours
+//                                             bounces 1/(1 - rd F_int) match ours, times
+//                                             the least-squares scale of Mitsuba's
+//                                             t(mu_i) t(mu_o) onto our (1 - F)(1 - F)
 //   cook_torrance, V-cavity G                 nearest: same D and F, Smith G
 //   cook_torrance-...-schlick                 nearest: exact Fresnel of the same ior
 //   cook_torrance-blinn-*                     nearest: Beckmann with alpha = m
@@ -59,9 +61,10 @@ struct NearestForm {
   Rgb eta = Rgb::Constant(1.5), k = Rgb::Zero();
   // roughplastic
   // diffuse_reflectance for unit weight: d with d / (1 - d F_int) (Mitsuba's
-  // F_int) = rd / (1 - rd F_int) (ours), so the base's internal bounces match
-  // (BaseForCoupling).
+  // F_int) = base_scale rd / (1 - rd F_int) (ours), so the base's internal
+  // bounces match (BaseForCoupling), up to base_scale (see above).
   Rgb base = Rgb::Zero();
+  double base_scale = 1;
   double ior = 1.5;                       // Mitsuba: int_ior (ext_ior = 1)
   RoughPlastic plastic;                   // Mitsuba's transmittance table and F_int for alpha, ior
 
