@@ -79,7 +79,7 @@ def torus(detail, big=0.36, small=0.16):
     for i in range(n_u):
         for j in range(n_v):
             a, b, c, d = i * w + j, i * w + j + 1, (i + 1) * w + j, (i + 1) * w + j + 1
-            faces += [[a, b, c], [b, d, c]]
+            faces += [[a, c, b], [b, c, d]]  # counter-clockwise seen from outside
     return np.array(verts), np.array(uvs), np.array(faces)
 
 
