@@ -227,8 +227,9 @@ class Refiner {
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::DENSE_QR;
     so.max_num_iterations = o_.max_iterations;
-    so.function_tolerance = 1e-8;
-    so.parameter_tolerance = 1e-8;
+    // A tilt to 1e-6 is far below what a photo resolves; tighter only adds iterations.
+    so.function_tolerance = 1e-6;
+    so.parameter_tolerance = 1e-6;
     so.num_threads = 1;  // parallel over texels instead
     so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
