@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "cluster/holdout.h"
 #include "core/error.h"
 #include "core/parallel.h"
-#include "core/rng.h"
 
 namespace svbrdf {
 
@@ -17,12 +17,7 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
   // neighbouring texels seen in the same photo.
   int num_images = 0;
   for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
-  std::vector<std::pair<double, int>> order;
-  for (int im = 0; im < num_images; ++im) order.emplace_back(HashUniform(o.seed, uint64_t(im), 0x401d), im);
-  std::sort(order.begin(), order.end());
-  std::vector<char> held_image(num_images, 0);
-  const int num_held = std::max(1, int(std::lround(o.holdout_fraction * num_images)));
-  for (int j = 0; j < num_held && num_images > 1; ++j) held_image[order[j].second] = 1;
+  const std::vector<char> held_image = HeldOutImages(num_images, o.holdout_fraction, o.seed);
   holdout_.resize(s.size());
   train_count_.assign(nt_, 0);
   for (int t = 0; t < nt_; ++t)
@@ -93,13 +88,14 @@ void Clustering::RemoveBasis(int k) {
 // are explained, not discarded as outliers), then a Cauchy refit from it
 // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
 FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples,
-                          int threads) const {
-  return FitIds(spec, Ids(k, false), init, max_samples, threads, k);
+                          int threads, bool multi_start) const {
+  return FitIds(spec, Ids(k, false), init, max_samples, threads, k, multi_start);
 }
 
 FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                             int64_t max_samples, int threads, int k) const {
+                             int64_t max_samples, int threads, int k, bool multi_start) const {
   FitOptions fo = o_.fit;
+  fo.multi_start = fo.multi_start && multi_start;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   fo.robust_scale = std::max(0.0, o_.robust_scale);
@@ -232,7 +228,8 @@ void Refine(Clustering& cl, int iterations) {
     for (int k = 0; k < cl.K(); ++k) {
       if (it > 0 && !cl.MembershipChanged(k)) continue;
       BasisMaterial b = cl.basis()[k];
-      b.params = cl.Fit(b.spec, k, b.params).params;
+      // Warm start: the material already fits most of the cluster's texels.
+      b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
       cl.SetBasis(k, b);
     }
   }
