@@ -374,7 +374,7 @@ TEST_F(Registration, RawPhotosToMaterialNearTheTruthCapture) {
   std::printf("held-out PSNR (%zu photos): raw photos -> capture -> reconstruct %.2f dB; the same with the mesh at its "
               "true placement %.2f dB; ground-truth capture %.2f dB\n",
               kept.size(), from_raw, from_raw_true_mesh, from_truth);
-  // Measured 23.82 / 24.00 / 23.90 dB. (On a finer material, 64 texels and up
+  // Measured 23.82 / 23.89 / 23.90 dB. (On a finer material, 64 texels and up
   // to 6 materials, where the truth capture reaches 37.5 dB, the registered
   // mesh costs 1.5 dB: its 0.06 mm error flips pixel coverage along the
   // held-out silhouettes; see README.)
