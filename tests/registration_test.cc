@@ -382,6 +382,35 @@ TEST_F(Registration, RawPhotosToMaterialNearTheTruthCapture) {
   EXPECT_GT(from_raw, from_truth - 1.0);
 }
 
+// A flash on the camera: one point light per photo at the given offset in
+// the camera frame (no mirror balls needed).
+TEST_F(Registration, FlashLightsFollowTheCamera) {
+  const RawSet& raw = Raw();
+  nlohmann::json desc = raw.desc;
+  desc.erase("mirror_spheres");
+  desc["lights"] = {{{"id", 1}, {"type", "flash"}, {"offset", {0.05, -0.02, 0.0}}, {"intensity", 2.0}}};
+  for (auto& p : desc["photos"]) p["light"] = 1;
+  const std::string desc_path = raw.dir + "/capture_flash.json";
+  WriteFileAtomic(desc_path, desc.dump());
+  CaptureJob job;
+  job.photos_dir = raw.dir;
+  job.description = desc_path;
+  job.out_dir = (fs::path(raw.dir).parent_path() / "capture_flash").string();
+  job.progress = false;
+  job.silhouette_iterations = 1;
+  RunCapture(job);
+  const Scene scene = LoadScene(job.out_dir + "/scene.json");
+  ASSERT_EQ(scene.lights.size(), scene.images.size());
+  for (const ImageEntry& e : scene.images) {
+    const Light* l = nullptr;
+    for (const Light& c : scene.lights) l = c.id == e.light ? &c : l;
+    ASSERT_NE(l, nullptr);
+    EXPECT_NEAR((e.cam_from_world * l->position - Vec3(0.05, -0.02, 0.0)).norm(), 0.0, 1e-9);
+    EXPECT_EQ(l->intensity[0], 2.0);
+  }
+  fs::remove_all(job.out_dir);
+}
+
 // GrabCut masks seeded by the rough mesh placement of capture.json (5 deg /
 // 2 cm off, up to ~20 px here) against the true object masks. The undecided
 // band must cover that error: with a 6 px band GrabCut reached IoU 0.77,

@@ -290,21 +290,45 @@ nlohmann::json RunCapture(const CaptureJob& job) {
 
   // 4. Lights: mirror-sphere highlights -> position; board albedo -> intensity.
   timer.Start("lights");
-  const nlohmann::json& ms = Field<nlohmann::json>(desc, "mirror_spheres", ctx);
-  const double radius = Field<double>(ms, "radius", ctx + ": mirror_spheres");
-  std::vector<MirrorSphere> spheres;
-  for (const auto& c : Field<std::vector<std::vector<double>>>(ms, "centres", ctx + ": mirror_spheres")) {
-    if (c.size() != 3) throw Error(Msg(ctx, ": mirror_spheres.centres: expected [x, y, z]"));
-    spheres.push_back({Vec3(c[0], c[1], c[2]), radius});
+  std::vector<MirrorSphere> spheres;  // optional when every light is a flash
+  if (desc.contains("mirror_spheres")) {
+    const nlohmann::json& ms = Field<nlohmann::json>(desc, "mirror_spheres", ctx);
+    const double radius = Field<double>(ms, "radius", ctx + ": mirror_spheres");
+    for (const auto& c : Field<std::vector<std::vector<double>>>(ms, "centres", ctx + ": mirror_spheres")) {
+      if (c.size() != 3) throw Error(Msg(ctx, ": mirror_spheres.centres: expected [x, y, z]"));
+      spheres.push_back({Vec3(c[0], c[1], c[2]), radius});
+    }
   }
   const BoardTexture tex = DrawBoard(board, 32);
   std::vector<Light> lights;
   nlohmann::json lights_report = nlohmann::json::array();
+  std::map<size_t, int> flash_of_photo;  // photo -> its flash light id
   for (const auto& lj : Field<nlohmann::json>(desc, "lights", ctx)) {
     Light light;
     light.id = Field<int>(lj, "id", ctx + ": lights[]");
-    if (Field<std::string>(lj, "type", ctx + ": lights[]") != "point")
-      throw Error(Msg(ctx, ": light ", light.id, ": only \"point\" lamps are calibrated by capture"));
+    const std::string kind = Field<std::string>(lj, "type", ctx + ": lights[]");
+    if (kind == "flash") {
+      // A flash moves with the camera: one point light per photo at the
+      // given offset in the camera frame (metres, x right, y down, z forward).
+      const auto off = Field<std::vector<double>>(lj, "offset", Msg(ctx, ": light ", light.id));
+      if (off.size() != 3) throw Error(Msg(ctx, ": light ", light.id, ": offset must be [x, y, z] metres"));
+      const double intensity = lj.contains("intensity") ? Field<double>(lj, "intensity", ctx + ": lights[]") : 1.0;
+      for (size_t i : posed) {
+        if (photos[i].light != light.id) continue;
+        Light f;
+        f.id = 1000000 + int(i);  // ids of per-photo flashes; the photo is renumbered to it below
+        f.type = LightType::kPoint;
+        f.position = photos[i].cam_from_world.Inverse() * Vec3(off[0], off[1], off[2]);
+        f.intensity = Rgb::Constant(intensity);
+        flash_of_photo[i] = f.id;
+        lights.push_back(f);
+        lights_report.push_back({{"id", f.id}, {"flash_of_photo", i},
+                                 {"position", {f.position.x(), f.position.y(), f.position.z()}}, {"intensity", intensity}});
+      }
+      continue;
+    }
+    if (kind != "point")
+      throw Error(Msg(ctx, ": light ", light.id, ": type must be \"point\" (calibrated by mirror balls) or \"flash\""));
     std::vector<Ray3> rays;
     for (size_t i : posed) {
       if (photos[i].light != light.id) continue;
@@ -386,7 +410,7 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     e.file = Msg("images/", name, ".exr");
     e.mask = Msg("masks/", name, ".png");
     e.camera = 1;
-    e.light = photos[i].light;
+    e.light = flash_of_photo.count(i) ? flash_of_photo.at(i) : photos[i].light;
     e.cam_from_world = photos[i].cam_from_world;
     e.exposure = 1.0;  // merged radiance is value / exposure
     WriteImage((tmp / e.file).string(), photos[i].hdr.radiance, PixelFormat::kFloat);
