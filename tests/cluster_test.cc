@@ -2,10 +2,12 @@
 // generated in code (known materials, known texel labels).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <set>
 
 #include "cluster/clustering.h"
+#include "cluster/holdout.h"
 #include "cluster/nnls.h"
 #include "cluster/reconstruct.h"
 #include "core/error.h"
@@ -297,9 +299,9 @@ TEST(Cluster, ModelChoiceWithoutHeldOutSamples) {
   const SampleSet s = MakeSamples(truth, label, 51);
   ReconstructOptions o = Quiet();
   o.holdout_fraction = 0.04;  // one photo of 24 held out (the first in the seeded order) ...
-  int held = 0;
-  for (int im = 1; im < 24; ++im)
-    if (HashUniform(o.seed, uint64_t(im), 0x401d) < HashUniform(o.seed, uint64_t(held), 0x401d)) held = im;
+  const std::vector<char> held_images = HeldOutImages(24, o.holdout_fraction, o.seed);
+  ASSERT_EQ(std::count(held_images.begin(), held_images.end(), 1), 1);
+  const int held = int(std::find(held_images.begin(), held_images.end(), 1) - held_images.begin());
   SampleSet u;  // ... and it does not see the glossy half
   u.num_texels = s.num_texels;
   u.texel_begin.push_back(0);
@@ -315,6 +317,19 @@ TEST(Cluster, ModelChoiceWithoutHeldOutSamples) {
   ASSERT_EQ(est.basis.size(), 2u);
   EXPECT_EQ(est.basis[est.label[150]].spec.Label(), "lafortune-1");
   EXPECT_EQ(est.basis[est.label[50]].spec.Label(), "lambert");
+}
+
+// One hold-out rule for every stage (clustering, model choice, normal
+// refinement): whole photos, the share asked for, deterministic for a seed,
+// none when there is one photo.
+TEST(Cluster, HeldOutPhotosFollowOneRule) {
+  const std::vector<char> a = HeldOutImages(40, 0.2, 7), b = HeldOutImages(40, 0.2, 7), c = HeldOutImages(40, 0.2, 8);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  EXPECT_EQ(std::count(a.begin(), a.end(), 1), 8);
+  const std::vector<char> d = HeldOutImages(10, 0.01, 7);
+  EXPECT_EQ(std::count(d.begin(), d.end(), 1), 1);
+  EXPECT_EQ(HeldOutImages(1, 0.5, 7), std::vector<char>{0});
 }
 
 TEST(Cluster, RejectsBadOptions) {

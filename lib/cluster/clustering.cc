@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "cluster/holdout.h"
 #include "core/error.h"
 #include "core/parallel.h"
-#include "core/rng.h"
 
 namespace svbrdf {
 
@@ -17,12 +17,7 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
   // neighbouring texels seen in the same photo.
   int num_images = 0;
   for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
-  std::vector<std::pair<double, int>> order;
-  for (int im = 0; im < num_images; ++im) order.emplace_back(HashUniform(o.seed, uint64_t(im), 0x401d), im);
-  std::sort(order.begin(), order.end());
-  std::vector<char> held_image(num_images, 0);
-  const int num_held = std::max(1, int(std::lround(o.holdout_fraction * num_images)));
-  for (int j = 0; j < num_held && num_images > 1; ++j) held_image[order[j].second] = 1;
+  const std::vector<char> held_image = HeldOutImages(num_images, o.holdout_fraction, o.seed);
   holdout_.resize(s.size());
   train_count_.assign(nt_, 0);
   for (int t = 0; t < nt_; ++t)

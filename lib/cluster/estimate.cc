@@ -16,13 +16,12 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   if (samples.size() == 0) throw Error("reconstruct: no samples");
   Clustering cl(samples, atlas, o);
   SvbrdfEstimate est;
-  const ModelSpec cluster_spec = ModelSpec::FromLabel(o.force_model.empty() ? o.cluster_model : o.force_model);
   const StageLog log(o.progress);
   const auto start = std::chrono::steady_clock::now();
 
   // 1. One cluster.
   cl.stage = "initial fit";
-  cl.SetBasis(0, MakeBasis(cluster_spec, cl.Fit(cluster_spec, 0, {}), 0));
+  cl.SetBasis(0, FitSplitModel(cl, 0, nullptr));
   const double heldout = cl.HeldoutRmse();
   est.history.push_back({1, cl.TrainRmse(), heldout, true, PartitionKey(cl.assign())});
   log(Msg("1 cluster: held-out RMSE ", heldout));

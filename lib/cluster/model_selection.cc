@@ -20,8 +20,8 @@ namespace {
 // from its training samples instead.
 constexpr size_t kMinValidationSamples = 300;
 
-// Moves the samples of whole training photos (in a seeded order, about a
-// quarter of the cluster's samples) from `train` to `hold`.
+}  // namespace
+
 void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, std::vector<int64_t>* hold) {
   const SampleSet& s = cl.samples();
   std::map<int, size_t> per_image;
@@ -41,6 +41,8 @@ void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, s
   for (int64_t i : *train) (held.count(s.image[i]) ? *hold : keep).push_back(i);
   *train = std::move(keep);
 }
+
+namespace {
 
 struct Tried {
   ModelSpec spec;
@@ -83,6 +85,12 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
 
 }  // namespace
 
+void ValidationSamples(const Clustering& cl, int k, std::vector<int64_t>* train, std::vector<int64_t>* hold) {
+  *hold = cl.Ids(k, true);
+  *train = cl.Ids(k, false);
+  if (hold->size() < kMinValidationSamples) ValidationFromTraining(cl, train, hold);
+}
+
 void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
@@ -91,7 +99,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
   std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
   for (int k = 0; k < cl.K(); ++k) {
     std::vector<int64_t> hold = cl.Ids(k, true), train = cl.Ids(k, false);
-    if (hold.size() < kMinValidationSamples && candidates.size() > 1) ValidationFromTraining(cl, &train, &hold);
+    if (candidates.size() > 1) ValidationSamples(cl, k, &train, &hold);
     // Candidates are independent small fits: one per thread pays better than
     // threads inside each Ceres solve. Two rounds: every candidate is screened
     // by a least-squares fit on a small random subset (its held-out error

@@ -21,6 +21,7 @@ void ReconstructOptions::Check() const {
   for (const auto& m : candidate_models) ModelSpec::FromLabel(m);  // throws for unknown labels
   if (!force_model.empty()) ModelSpec::FromLabel(force_model);
   ModelSpec::FromLabel(cluster_model);
+  for (const auto& m : split_models) ModelSpec::FromLabel(m);
 }
 
 }  // namespace svbrdf

@@ -6,7 +6,9 @@
 //  0. Split samples into training and held-out sets (per sample, by a hash of
 //     seed, texel and image; `holdout_fraction`). Texels with fewer than
 //     `min_samples` training samples do not take part in fits.
-//  1. One cluster holding every texel; fit `cluster_model` to it.
+//  1. One cluster holding every texel; fit `cluster_model` and the
+//     `split_models` to it, keep the one with the lowest held-out error
+//     (every cluster made by a split below chooses its model the same way).
 //  2. Repeat until `max_clusters`:
 //     a. Take the cluster with the largest training error.
 //     b. Direction of largest parameter variance: each texel's linearised
@@ -63,7 +65,16 @@ struct ReconstructOptions {
                                                "cook_torrance-beckmann", "cook_torrance-ggx", "conductor-ggx-schlick",
                                                "conductor-ggx", "conductor-beckmann", "coated-ggx", "coated-beckmann"};
   std::string force_model;
-  std::string cluster_model = "lafortune-1";  // model used while splitting
+  std::string cluster_model = "lafortune-1";  // model used while splitting (with split_models)
+  // Beside `cluster_model`, models fitted to every cluster while splitting
+  // (those also among the candidates); each cluster keeps the one with the
+  // lowest error on its held-out samples. One model cannot represent every
+  // material: a Lafortune lobe fitted to a glossy plastic extrapolates
+  // wildly to unseen directions, and no dielectric reflects like a metal
+  // (coloured, near 1, no diffuse), so splits into such materials looked
+  // worse than no split. A physically bounded dielectric and a conductor
+  // cover the two kinds of interface.
+  std::vector<std::string> split_models = {"coated-ggx", "conductor-ggx-schlick"};
   int max_clusters = 6;
   int force_clusters = 0;        // > 0: exactly this many basis materials (no stopping rule)
   double holdout_fraction = 0.2;

@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cluster/model_selection.h"
 #include "cluster/nnls.h"
+#include "cluster/stats.h"
 #include "core/parallel.h"
 
 namespace svbrdf {
@@ -118,6 +120,47 @@ std::vector<int> GeometrySplitSides(const Clustering& cl, int k) {
   std::sort(proj.begin(), proj.end());
   for (size_t j = 0; j < T; ++j) side[proj[j].second] = j < T / 2 ? 1 : -1;
   return side;
+}
+
+std::vector<ModelSpec> SplitModels(const ReconstructOptions& o) {
+  if (!o.force_model.empty()) return {ModelSpec::FromLabel(o.force_model)};
+  std::vector<ModelSpec> specs{ModelSpec::FromLabel(o.cluster_model)};
+  for (const std::string& label : o.split_models) {
+    const ModelSpec spec = ModelSpec::FromLabel(label);
+    const bool candidate = std::find(o.candidate_models.begin(), o.candidate_models.end(), label) != o.candidate_models.end();
+    if (candidate && std::find(specs.begin(), specs.end(), spec) == specs.end()) specs.push_back(spec);
+  }
+  return specs;
+}
+
+BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
+  const ReconstructOptions& o = cl.options();
+  const std::vector<ModelSpec> specs = SplitModels(o);
+  auto start = [&](const ModelSpec& spec) { return parent && parent->spec == spec ? parent->params : std::vector<double>{}; };
+  if (specs.size() == 1) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  std::vector<int64_t> train, hold;
+  ValidationSamples(cl, k, &train, &hold);
+  if (train.empty()) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  // Independent small fits: one per thread (as in model selection).
+  std::vector<FitResult> fits(specs.size());
+  std::vector<double> mse(specs.size(), 0.0);
+  ParallelFor(long(specs.size()), o.threads, [&](long j) {
+    fits[j] = cl.FitIds(specs[j], train, start(specs[j]), o.selection_samples, 1, k);
+    if (hold.empty()) {
+      mse[j] = fits[j].cost;
+      return;
+    }
+    // Not trimmed: a model that extrapolates wildly to the unseen directions
+    // of a few samples (highlights) must lose.
+    double sum = 0;
+    for (double e : SampleErrors(specs[j], fits[j].params, cl.samples(), hold)) sum += e;
+    mse[j] = sum / (3.0 * hold.size());
+  });
+  const size_t best = size_t(std::min_element(mse.begin(), mse.end()) - mse.begin());
+  // A split's halves are refitted on all their samples by the refinement
+  // that follows; the first cluster is not.
+  if (parent) return MakeBasis(specs[best], fits[best], k);
+  return MakeBasis(specs[best], cl.Fit(specs[best], k, fits[best].params), k);
 }
 
 }  // namespace svbrdf

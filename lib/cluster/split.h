@@ -30,6 +30,22 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant);
 // must gain clearly more. Returns +1/-1 for the texels of cluster k, 0 else.
 std::vector<int> GeometrySplitSides(const Clustering& cl, int k);
 
+// The models tried for every cluster while splitting: `force_model` alone
+// when set, else `cluster_model` and those `split_models` that are also
+// candidates of the model selection.
+std::vector<ModelSpec> SplitModels(const ReconstructOptions& o);
+
+// The split-stage basis material of cluster k: every SplitModels() model
+// fitted to the cluster's training samples (`selection_samples` of them),
+// the one with the lowest mean squared error on its validation samples
+// (ValidationSamples). `parent` (may be null): warm start for the fit of its
+// own model; without a parent (the first cluster) the chosen model is
+// refitted on all training samples, with one (a split's half) the refinement
+// after the split does that. The choice depends on the
+// data alone, not on one model: a metal half gets a conductor, a glossy
+// dielectric half a coat, whatever the parent was.
+BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent);
+
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`.

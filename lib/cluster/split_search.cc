@@ -14,15 +14,15 @@ namespace {
 constexpr int kMaxFailedSplits = 4;  // splits in a row without improvement before stopping
 
 // Moves the side < 0 texels of cluster k to a new cluster and fits both
-// halves from the parent's parameters.
+// halves, each with the split model that suits it (FitSplitModel).
 void SplitCluster(Clustering& cl, int k, const std::vector<int>& side) {
   const int knew = cl.K();
   for (size_t t = 0; t < side.size(); ++t)
     if (side[t] < 0) cl.assign()[t] = knew;
     else if (side[t] == 0 && cl.assign()[t] == k) cl.assign()[t] = -1;  // re-assigned below
   const BasisMaterial parent = cl.basis()[k];
-  cl.SetBasis(knew, MakeBasis(parent.spec, cl.Fit(parent.spec, knew, parent.params), knew));
-  cl.SetBasis(k, MakeBasis(parent.spec, cl.Fit(parent.spec, k, parent.params), k));
+  cl.SetBasis(knew, FitSplitModel(cl, knew, &parent));
+  cl.SetBasis(k, FitSplitModel(cl, k, &parent));
   for (int& a : cl.assign()) if (a < 0) a = k;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "cluster/holdout.h"
 #include "cluster/nnls.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -47,18 +48,6 @@ std::string NormalRefinement::Report() const {
      << " texels refined, tilt mean " << mean_tilt_deg << " deg, median " << median_tilt_deg << " deg, noise sigma "
      << noise_sigma;
   return os.str();
-}
-
-std::vector<char> HeldOutImages(int num_images, double holdout_fraction, uint64_t seed) {
-  // The clustering's rule (lib/cluster): images ordered by a seeded hash, the
-  // first round(fraction * n) held out, none when there is only one photo.
-  std::vector<std::pair<double, int>> order;
-  for (int im = 0; im < num_images; ++im) order.emplace_back(HashUniform(seed, uint64_t(im), 0x401d), im);
-  std::sort(order.begin(), order.end());
-  std::vector<char> held(num_images, 0);
-  const int num_held = std::max(1, int(std::lround(holdout_fraction * num_images)));
-  for (int j = 0; j < num_held && num_images > 1; ++j) held[order[j].second] = 1;
-  return held;
 }
 
 namespace {

@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "atlas/atlas.h"
+#include "cluster/holdout.h"
 #include "cluster/reconstruct.h"
 #include "gather/samples.h"
 
@@ -84,10 +85,6 @@ struct NormalRefinement {
   double mean_tilt_deg = 0, median_tilt_deg = 0;  // of refined texels, from the mesh normal
   std::string Report() const;
 };
-
-// The photos the clustering holds out (ReconstructOptions::holdout_fraction and
-// seed): the same whole-photo rule, so that both stages decide on unseen photos.
-std::vector<char> HeldOutImages(int num_images, double holdout_fraction, uint64_t seed);
 
 // `start`: per-texel tilts to start the refined fits from (e.g. an earlier
 // round's); null = the mesh normals. The prior always pulls towards the mesh normal.
