@@ -2,6 +2,7 @@
 // least-squares fit elsewhere), the per-texel glTF fit against a direct
 // evaluation, and the structure of both exports (files, XML, glTF buffers).
 #include <gtest/gtest.h>
+#include <iostream>
 #include <unistd.h>
 
 #include <cmath>
@@ -10,12 +11,14 @@
 #include <nlohmann/json.hpp>
 
 #include "atlas/atlas.h"
+#include "brdf/fresnel.h"
 #include "core/error.h"
 #include "export/directions.h"
 #include "export/gltf.h"
 #include "export/gltf_brdf.h"
 #include "export/mitsuba.h"
 #include "export/nearest_form.h"
+#include "export/rough_plastic.h"
 #include "export/xml.h"
 #include "io/files.h"
 #include "raytrace/sphere_mesh.h"
@@ -58,7 +61,7 @@ TEST(Directions, QuadratureIntegratesTheCosineOverTheHemisphere) {
 TEST(NearestForm, ExactMappingsHaveZeroError) {
   const NearestForm l = MapToNearestForm(Basis("lambert", {{"rd_r", 0.2}, {"rd_g", 0.5}, {"rd_b", 0.7}}), Pairs());
   EXPECT_TRUE(l.exact);
-  EXPECT_FALSE(l.has_lobe);
+  EXPECT_FALSE(l.has_lobe());
   EXPECT_LT(l.error, 1e-12);
   EXPECT_DOUBLE_EQ(l.rd[1], 0.5);
   const NearestForm ct = MapToNearestForm(
@@ -67,7 +70,7 @@ TEST(NearestForm, ExactMappingsHaveZeroError) {
   EXPECT_TRUE(ct.fresnel);
   EXPECT_EQ(ct.distribution, Distribution::kGGX);
   EXPECT_DOUBLE_EQ(ct.alpha, 0.2);
-  EXPECT_DOUBLE_EQ(ct.eta, 1.6);
+  EXPECT_DOUBLE_EQ(ct.eta[0], 1.6);
   EXPECT_LT(ct.error, 1e-12);
 }
 
@@ -86,7 +89,7 @@ TEST(NearestForm, FitRecoversALobeItCanRepresent) {
                                                 {"rs_g", 0.4}, {"rs_b", 0.4}, {"exponent", 60}});
   const NearestForm f = MapToNearestForm(b, Pairs());
   EXPECT_FALSE(f.exact);
-  EXPECT_TRUE(f.has_lobe);
+  EXPECT_TRUE(f.has_lobe());
   EXPECT_NEAR(f.rd[0], 0.3, 0.06);
   EXPECT_GT(f.alpha, 0.05);
   EXPECT_LT(f.alpha, 0.3);
@@ -96,6 +99,120 @@ TEST(NearestForm, FitRecoversALobeItCanRepresent) {
   no_lobe.rs = Rgb::Zero();
   const BasisMaterial nb = no_lobe.AsBasis("x");
   EXPECT_LT(f.error, RelativeFeatureError(BrdfFeatures(b.spec, b.params, Pairs()), BrdfFeatures(nb.spec, nb.params, Pairs())));
+}
+
+TEST(NearestForm, ExactConductorIsARoughConductorWithItsComplexIndex) {
+  const NearestForm f = MapToNearestForm(Basis("conductor-beckmann", {{"eta_r", 0.14}, {"eta_g", 0.43}, {"eta_b", 1.38},
+                                                                     {"kappa_r", 3.697}, {"kappa_g", 2.455},
+                                                                     {"kappa_b", 1.914}, {"roughness", 0.25}}),
+                                         Pairs());
+  EXPECT_TRUE(f.exact);
+  EXPECT_EQ(f.lobe, NearestForm::Lobe::kRoughConductor);
+  EXPECT_EQ(f.distribution, Distribution::kBeckmann);
+  EXPECT_DOUBLE_EQ(f.alpha, 0.25);
+  EXPECT_TRUE(f.fresnel);
+  EXPECT_DOUBLE_EQ(f.eta[0], 0.14);
+  EXPECT_DOUBLE_EQ(f.k[2], 1.914);
+  EXPECT_TRUE(f.rd.isZero());
+  EXPECT_LT(f.error, 1e-12);
+  // Back to our model for relight of as_rendered/: the same conductor.
+  const BasisMaterial back = f.AsBasis("x");
+  EXPECT_EQ(back.spec.Label(), "conductor-beckmann");
+  EXPECT_DOUBLE_EQ(back.params[4], 2.455);
+}
+
+TEST(NearestForm, SchlickAndF82ConductorsKeepF0AndStayClose) {
+  // Copper (Johnson & Christy) as F0 + F82 tint from its complex index, and as Schlick.
+  const double eta[3] = {0.22, 1.02, 1.24}, kappa[3] = {3.747, 2.577, 2.397};
+  std::vector<std::pair<std::string, double>> f82 = {{"roughness", 0.2}}, schlick = {{"roughness", 0.2}};
+  const char* ch[3] = {"_r", "_g", "_b"};
+  for (int c = 0; c < 3; ++c) {
+    const double f0 = brdf::ConductorF0(eta[c], kappa[c]);
+    f82.push_back({std::string("f0") + ch[c], f0});
+    f82.push_back({std::string("f82_tint") + ch[c], brdf::ConductorF82Tint(eta[c], kappa[c])});
+    schlick.push_back({std::string("f0") + ch[c], f0});
+  }
+  for (const auto& [label, params] : {std::make_pair("conductor-ggx-f82", f82), std::make_pair("conductor-ggx-schlick", schlick)}) {
+    const BasisMaterial b = Basis(label, params);
+    const NearestForm f = MapToNearestForm(b, Pairs());
+    EXPECT_FALSE(f.exact) << label;
+    EXPECT_EQ(f.lobe, NearestForm::Lobe::kRoughConductor);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(brdf::ConductorF0(f.eta[c], f.k[c]), b.params[c], 1e-9);
+    EXPECT_GT(f.max_fresnel_error, 1e-4) << label;  // Schlick's curve is not a complex-index Fresnel ...
+    EXPECT_LT(f.max_fresnel_error, 0.1) << label;   // ... but close
+    EXPECT_LT(f.error, 0.02) << label;
+    // Better than a naive choice (eta = 1, kappa from F0).
+    NearestForm naive = f;
+    for (int c = 0; c < 3; ++c) naive.eta[c] = 1, naive.k[c] = brdf::ConductorKappaFromF0(brdf::ConductorF0(f.eta[c], f.k[c]), 1);
+    const BasisMaterial nb = naive.AsBasis("x");
+    EXPECT_LE(f.error, RelativeFeatureError(BrdfFeatures(b.spec, b.params, Pairs()), BrdfFeatures(nb.spec, nb.params, Pairs()))) << label;
+    std::cout << label << ": error " << f.error << ", max |dF| " << f.max_fresnel_error << "\n";
+  }
+}
+
+TEST(NearestForm, CoatedIsARoughPlasticWithOurBaseCoupling) {
+  for (const char* label : {"coated-ggx", "coated-beckmann"}) {
+    const BasisMaterial b = Basis(label, {{"rd_r", 0.6}, {"rd_g", 0.07}, {"rd_b", 0.9}, {"roughness", 0.1}, {"ior", 1.5}});
+    const NearestForm f = MapToNearestForm(b, Pairs());
+    EXPECT_FALSE(f.exact);
+    EXPECT_EQ(f.lobe, NearestForm::Lobe::kRoughPlastic);
+    EXPECT_DOUBLE_EQ(f.ior, 1.5);
+    EXPECT_DOUBLE_EQ(f.alpha, 0.1);
+    EXPECT_TRUE(f.rd.isZero());
+    // Mitsuba's coupling base / (1 - base F_int) equals ours rd / (1 - rd F_int)
+    // times the least-squares scale of the transmittances (near 1).
+    EXPECT_NEAR(f.base_scale, 1.0, 0.1);
+    const double ours = brdf::DielectricInternalDiffuseReflectance(1.5), theirs = f.plastic.internal_reflectance;
+    EXPECT_GT(std::abs(ours - theirs), 1e-3);  // a rough coat reflects less back than a smooth one
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(f.base[c] / (1 - f.base[c] * theirs), f.base_scale * b.params[c] / (1 - b.params[c] * ours), 1e-12);
+    // The scale is the least-squares choice: better than none.
+    NearestForm unscaled = f;
+    for (int c = 0; c < 3; ++c)
+      unscaled.base[c] = BaseForCoupling(b.params[c] / (1 - b.params[c] * ours), theirs);
+    EXPECT_LT(f.error, RelativeFeatureError(BrdfFeatures(b.spec, b.params, Pairs()), [&] {
+                std::vector<double> v(3 * Pairs().size());
+                for (size_t j = 0; j < Pairs().size(); ++j) {
+                  const Rgb x = unscaled.Eval(Pairs().wi[j], Pairs().wo[j]) * std::sqrt(Pairs().weight[j]) * Pairs().wi[j].z();
+                  for (int c = 0; c < 3; ++c) v[3 * j + c] = x[c];
+                }
+                return v;
+              }()));
+    // The form differs from ours only by the rough coat's transmittance: small.
+    EXPECT_GT(f.error, 1e-4) << label;
+    EXPECT_LT(f.error, 0.05) << label;
+    // AsBasis gives our coated model back.
+    const BasisMaterial back = f.AsBasis("x");
+    EXPECT_EQ(back.spec.Label(), label);
+    for (int i = 0; i < 5; ++i) EXPECT_NEAR(back.params[i], b.params[i], 1e-12);
+    std::cout << label << ": error " << f.error << ", base scale " << f.base_scale << ", F_int Mitsuba " << theirs << " ours " << ours << "\n";
+  }
+}
+
+TEST(RoughPlastic, MatchesMitsubasOwnEvaluation) {
+  // Mitsuba 3.9.1 scalar_rgb, roughplastic int_ior 1.5, ext_ior 1, nonlinear,
+  // diffuse_reflectance (0.5, 0.1, 0.9): bsdf.eval (f cos(theta_o)) for wi at
+  // 0.7 rad, wo at 0.3 rad and azimuth pi - 0.5 (scripts/check_mitsuba_export.py --plastic-probe).
+  const Vec3 wi(std::sin(0.7), 0, std::cos(0.7)),
+      wo(-std::sin(0.3) * std::cos(0.5), std::sin(0.3) * std::sin(0.5), std::cos(0.3));
+  struct Case {
+    Distribution d;
+    double alpha;
+    Rgb mitsuba;
+  };
+  for (const Case& c : {Case{Distribution::kGGX, 0.06, Rgb(0.0912866, 0.0178141, 0.234139)},
+                        Case{Distribution::kGGX, 0.3, Rgb(0.0954436, 0.0321281, 0.192294)},
+                        Case{Distribution::kBeckmann, 0.3, Rgb(0.1119, 0.0412066, 0.2399)}}) {
+    const RoughPlastic p = RoughPlastic::Make(c.d, c.alpha, 1.5);
+    const Rgb f = p.Eval(Rgb(0.5, 0.1, 0.9), true, wi, wo) * wo.z();
+    for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(f[ch], c.mitsuba[ch], 1e-3 * c.mitsuba[ch]) << c.alpha << " " << ch;
+  }
+  // A nearly smooth coat transmits 1 - F at normal incidence, and its
+  // internal reflectance approaches the smooth closed form.
+  const RoughPlastic smooth = RoughPlastic::Make(Distribution::kBeckmann, 0.01, 1.5);
+  EXPECT_NEAR(smooth.Transmittance(1.0), 1 - brdf::FresnelDielectric(1.0, 1.5), 1e-4);
+  EXPECT_NEAR(smooth.internal_reflectance, brdf::DielectricInternalDiffuseReflectance(1.5), 0.02);
+  for (int j = 0; j < RoughPlastic::kTableSize; ++j) EXPECT_LE(smooth.transmittance[j], 1.0);
 }
 
 TEST(SpotBeamWidth, UniformConeNeedsNoRampAndCosineLobeDoes) {
@@ -297,6 +414,55 @@ TEST(MitsubaExport, WritesSceneFilesWithExactTextureSums) {
   const nlohmann::json views = nlohmann::json::parse(ReadFileBytes(dir + "/views.json"));
   ASSERT_EQ(views.size(), 2u);
   EXPECT_EQ(views[1]["image"], "images/0000.exr");
+  fs::remove_all(dir);
+}
+
+
+TEST(MitsubaExport, MapsConductorsAndCoatsToTheirPlugins) {
+  // Three basis materials: gold (exact index), an F82 conductor and a coat.
+  Material m = TwoMaterialSphere(32);
+  m.basis = {Basis("conductor-ggx", {{"eta_r", 0.14}, {"eta_g", 0.43}, {"eta_b", 1.38}, {"kappa_r", 3.697},
+                                     {"kappa_g", 2.455}, {"kappa_b", 1.914}, {"roughness", 0.25}}),
+             Basis("conductor-beckmann-f82", {{"f0_r", 0.9}, {"f0_g", 0.9}, {"f0_b", 0.9}, {"f82_tint_r", 0.8},
+                                              {"f82_tint_g", 0.8}, {"f82_tint_b", 0.8}, {"roughness", 0.1}}),
+             Basis("coated-beckmann", {{"rd_r", 0.6}, {"rd_g", 0.1}, {"rd_b", 0.05}, {"roughness", 0.2}, {"ior", 1.4}})};
+  Image w2 = m.weights[0];
+  for (float& v : w2.pixels) v = 0.5f;
+  m.weights.push_back(w2);
+  const std::string dir = TempDir("mitsuba_models");
+  const nlohmann::json report = ExportMitsuba(m, nullptr, MitsubaExportOptions{}, dir);
+  EXPECT_EQ(report["parts"], 4);  // diffuse + 3 lobes
+  const std::string object = ReadFileBytes(dir + "/object.xml");
+  auto has = [&](const std::string& s) { return object.find(s) != std::string::npos; };
+  EXPECT_TRUE(has("<rgb name=\"eta\" value=\"0.14, 0.43, 1.38\"/>")) << object;
+  EXPECT_TRUE(has("<rgb name=\"k\" value=\"3.697, 2.455, 1.914\"/>"));
+  EXPECT_TRUE(has("<bsdf type=\"roughplastic\">"));
+  EXPECT_TRUE(has("<float name=\"int_ior\" value=\"1.4\"/>"));
+  EXPECT_TRUE(has("<float name=\"ext_ior\" value=\"1\"/>"));  // Mitsuba's default is air, 1.000277
+  EXPECT_TRUE(has("<boolean name=\"nonlinear\" value=\"true\"/>"));
+  EXPECT_TRUE(has("textures/m2_base.exr"));
+  // The F82 conductor: a roughconductor whose index keeps F0 = 0.9.
+  const nlohmann::json& lobe = report["basis"][1]["lobe"];
+  EXPECT_EQ(lobe["plugin"], "roughconductor");
+  EXPECT_EQ(lobe["distribution"], "beckmann");
+  EXPECT_NEAR(brdf::ConductorF0(lobe["eta"][0].get<double>(), lobe["k"][0].get<double>()), 0.9, 1e-9);
+  EXPECT_EQ(report["basis"][0]["exact"], true);
+  EXPECT_EQ(report["basis"][2]["lobe"]["plugin"], "roughplastic");
+  // Base texture: with weight w and 4 parts, d / (1 - d F_int) = 4 w g, g the form's coupling.
+  const NearestForm coat = MapToNearestForm(m.basis[2], Pairs());
+  const double f_int = coat.plastic.internal_reflectance;
+  const Image base = ReadImage(dir + "/textures/m2_base.exr"), spec = ReadImage(dir + "/textures/m2_specular.exr");
+  for (int c = 0; c < 3; ++c) {
+    const double d = base.at(3, 3, c), g = coat.base[c] / (1 - coat.base[c] * f_int);
+    EXPECT_NEAR(d / (1 - d * f_int), 4 * 0.5 * g, 1e-5);
+    EXPECT_NEAR(spec.at(3, 3, c), 4 * 0.5, 1e-6);  // the coat's specular_reflectance is the weight alone
+  }
+  // as_rendered/ holds our models: conductor, conductor (exact index), coated.
+  const nlohmann::json as = nlohmann::json::parse(ReadFileBytes(dir + "/as_rendered/material.json"));
+  EXPECT_EQ(as["basis"][0]["label"], "conductor-ggx");
+  EXPECT_EQ(as["basis"][1]["label"], "conductor-beckmann");
+  EXPECT_EQ(as["basis"][2]["label"], "coated-beckmann");
+  EXPECT_NEAR(as["basis"][2]["params"]["rd_r"].get<double>(), 0.6, 1e-9);
   fs::remove_all(dir);
 }
 

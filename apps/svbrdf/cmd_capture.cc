@@ -44,7 +44,7 @@ void RegisterCapture(CLI::App& app, Runner* run) {
   auto a = std::make_shared<RawArgs>();
   CLI::App* s = app.add_subcommand(
       "synth-raw",
-      "Synthetic raw photo set for `capture`: a ChArUco board (6x5 squares of 6 cm), mirror spheres,\n"
+      "Synthetic raw photo set for `capture`: a ChArUco board (11x8 squares of 3.5 cm), mirror spheres,\n"
       "lamps and an object with a hidden ground-truth SVBRDF; brackets of 16-bit linear PNGs,\n"
       "capture.json, and truth/ (the ground-truth capture, kept aside).\n"
       "Example: svbrdf synth-raw --out raw && svbrdf capture raw --out capture");

@@ -40,6 +40,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")
       ->check(CLI::IsMember({"on", "off", "force"}));
   c->add_option("--normal-prior", job->normals.prior_tilt, "prior std of tan(tilt) from the mesh normal (> 0)");
+  c->add_flag("--recluster", job->normals.recluster,
+              "when refined normals are kept: cluster again on the reoriented samples (about doubles the time)");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {

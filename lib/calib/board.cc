@@ -207,10 +207,10 @@ BoardTexture DrawBoard(const BoardSpec& board, int pps) {
 BoardSpec DefaultRawBoard() {
   BoardSpec b;
   b.pattern = BoardPattern::kCharuco;
-  b.cols = 6;
-  b.rows = 5;
-  b.square = 0.06;
-  b.marker = 0.045;
+  b.cols = 11;
+  b.rows = 8;
+  b.square = 0.035;
+  b.marker = 0.026;
   return b;
 }
 

@@ -23,6 +23,8 @@ void CalibrateOptions::Check() const {
   if (min_points < 4) throw Error("calibrate: min_points must be >= 4");
   if (!(reject_factor > 1)) throw Error("calibrate: reject_factor must be > 1");
   if (min_views < 1) throw Error("calibrate: min_views must be >= 1");
+  if (!(point_outlier_factor > 1) || !(min_point_outlier_px >= 0))
+    throw Error("calibrate: point_outlier_factor must be > 1 and min_point_outlier_px >= 0");
 }
 
 namespace {
@@ -142,6 +144,29 @@ CalibrationResult CalibrateFromDetections(std::vector<ViewCalibration> views, in
   if (count_used() < o.min_views) throw too_few("with the board");
   CalibrationResult r;
   r.rms_all_found = Fit(views, w, h, o, &r.camera);
+  // Reject single points far off the fit (a corner whose refinement window
+  // caught an occluder's edge, e.g. a mirror ball standing on the board),
+  // then refit: one such corner costs more than the rest of its view gives.
+  std::vector<double> norms;
+  for (const auto& v : views)
+    if (v.used)
+      for (const Vec2& res : v.residuals) norms.push_back(res.norm());
+  std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
+  const double point_limit = std::max(o.min_point_outlier_px, o.point_outlier_factor * norms[norms.size() / 2]);
+  int dropped_points = 0;
+  for (auto& v : views) {
+    if (!v.used) continue;
+    ViewCalibration kept = v;
+    kept.ids.clear();
+    kept.points.clear();
+    for (size_t i = 0; i < v.ids.size(); ++i)
+      if (v.residuals[i].norm() <= point_limit) kept.ids.push_back(v.ids[i]), kept.points.push_back(v.points[i]);
+    if (kept.ids.size() == v.ids.size() || int(kept.ids.size()) < o.min_points) continue;
+    dropped_points += int(v.ids.size() - kept.ids.size());
+    kept.outlier_points = int(v.ids.size() - kept.ids.size());
+    v = std::move(kept);
+  }
+  double rms_now = dropped_points > 0 ? Fit(views, w, h, o, &r.camera) : r.rms_all_found;
   // Reject outlier views (blur, misdetection) once, then refit.
   std::vector<double> rms;
   for (const auto& v : views)
@@ -156,7 +181,8 @@ CalibrationResult CalibrateFromDetections(std::vector<ViewCalibration> views, in
       v.why = Msg("reprojection RMS ", v.rms, " px > ", o.reject_factor, " x median ", median, " px");
       rejected = true;
     }
-  r.rms = rejected ? Fit(views, w, h, o, &r.camera) : r.rms_all_found;
+  r.rms = rejected ? Fit(views, w, h, o, &r.camera) : rms_now;
+  r.outlier_points = dropped_points;
   r.used_views = count_used();
   r.views = std::move(views);
   return r;
@@ -192,6 +218,7 @@ nlohmann::json CalibrationResult::ToJson() const {
   nlohmann::json views_json = nlohmann::json::array();
   for (const auto& v : views) {
     nlohmann::json j = {{"image", v.name}, {"used", v.used}, {"points", v.points.size()}};
+    if (v.outlier_points > 0) j["outlier_points_dropped"] = v.outlier_points;
     if (!v.residuals.empty()) j["rms_px"] = v.rms;
     if (!v.used) j["rejected_because"] = v.why;
     else
@@ -207,6 +234,7 @@ nlohmann::json CalibrationResult::ToJson() const {
             {"opencv_principal_point", {camera.cx() - 0.5, camera.cy() - 0.5}}}},
           {"rms_px", rms},
           {"rms_px_before_rejection", rms_all_found},
+          {"outlier_points_dropped", outlier_points},
           {"used_views", used_views},
           {"views", views_json}};
 }

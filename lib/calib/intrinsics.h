@@ -21,12 +21,17 @@ namespace svbrdf {
 //   reject_factor  after a first fit, views whose RMS exceeds reject_factor x the
 //                  median view RMS (and 0.5 px) are rejected and the fit repeated, > 1
 //   min_views      fewer usable views is an error, >= 1
+//   point_outlier_factor, min_point_outlier_px  after a first fit, single
+//                  points whose residual exceeds max(min_point_outlier_px,
+//                  point_outlier_factor x the median residual) are dropped
+//                  (> 1, >= 0 pixels)
 struct CalibrateOptions {
   BoardSpec board;
   CameraModelId model = CameraModelId::kOpenCV;
   int min_points = 6;
   double reject_factor = 4.0;
   int min_views = 3;
+  double point_outlier_factor = 4.0, min_point_outlier_px = 0.1;
   bool progress = true;
   void Check() const;
 };
@@ -36,7 +41,8 @@ struct ViewCalibration {
   bool used = false;
   std::string why;            // reason for rejection (empty when used)
   std::vector<int> ids;       // board point ids
-  std::vector<Vec2> points;   // detected, COLMAP convention
+  std::vector<Vec2> points;   // detected, COLMAP convention (outliers removed)
+  int outlier_points = 0;     // detections dropped as far off the first fit
   std::vector<Vec2> residuals;  // projected - detected, pixels (views that reached a fit)
   double rms = 0;             // pixels, over this view's points
   Rigid3 cam_from_board;
@@ -46,6 +52,7 @@ struct CalibrationResult {
   Camera camera;              // id 1
   double rms = 0;             // over all points of the used views, pixels
   double rms_all_found = 0;   // first fit, every view with a detection (before rejection)
+  int outlier_points = 0;     // single points dropped (see CalibrateOptions)
   int used_views = 0;
   std::vector<ViewCalibration> views;
   nlohmann::json ToJson() const;

@@ -88,13 +88,14 @@ void Clustering::RemoveBasis(int k) {
 // are explained, not discarded as outliers), then a Cauchy refit from it
 // with a scale of 3 robust sigmas (1.4826 MAD) of its residuals.
 FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples,
-                          int threads) const {
-  return FitIds(spec, Ids(k, false), init, max_samples, threads, k);
+                          int threads, bool multi_start) const {
+  return FitIds(spec, Ids(k, false), init, max_samples, threads, k, multi_start);
 }
 
 FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                             int64_t max_samples, int threads, int k) const {
+                             int64_t max_samples, int threads, int k, bool multi_start) const {
   FitOptions fo = o_.fit;
+  fo.multi_start = fo.multi_start && multi_start;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   fo.robust_scale = std::max(0.0, o_.robust_scale);
@@ -227,7 +228,8 @@ void Refine(Clustering& cl, int iterations) {
     for (int k = 0; k < cl.K(); ++k) {
       if (it > 0 && !cl.MembershipChanged(k)) continue;
       BasisMaterial b = cl.basis()[k];
-      b.params = cl.Fit(b.spec, k, b.params).params;
+      // Warm start: the material already fits most of the cluster's texels.
+      b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
       cl.SetBasis(k, b);
     }
   }

@@ -54,11 +54,13 @@ class Clustering {
   const char* stage = "clustering";
 
   // Robust fit of `spec` to cluster k's training samples (see clustering.cc).
+  // multi_start = false: refine from `init` only (a warm start, e.g. the
+  // cluster's own material after its membership changed a little).
   FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0,
-                int threads = -1) const;
+                int threads = -1, bool multi_start = true) const;
   // The same on the samples `ids` (of cluster `k`, named in fit errors; < 0: not one cluster).
   FitResult FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                   int64_t max_samples = 0, int threads = -1, int k = -1) const;
+                   int64_t max_samples = 0, int threads = -1, int k = -1, bool multi_start = true) const;
 
   // Squared error of texel t's samples under basis k with the best brightness
   // scale a in [0.5, 2] shared by the channels (a texel may be darker or

@@ -34,8 +34,9 @@
 //        row end the search); a split whose smaller half has fewer than
 //        `min_cluster_fraction` of the texels is not made. No clustering
 //        state (texel partition) is evaluated twice.
-//  3. Model economy per cluster: fit every candidate model to the cluster's
-//     training samples (`selection_samples` of them), keep the model with the
+//  3. Model economy per cluster: screen every candidate model by a quick fit
+//     to a small random subset of the cluster's training samples, fit the
+//     best few fully (`selection_samples` of them), keep the model with the
 //     fewest parameters unless the best model's held-out RMSE (trimmed of the
 //     worst 2 % of samples: misassigned texels) is lower by `parsimony` times
 //     the RMS of the signal and by `model_min_z` standard errors (paired); refine again.
@@ -126,6 +127,7 @@ struct ModelChoice {
   double heldout_rmse = 0;
   int num_params = 0;
   bool chosen = false;
+  bool finalist = true;  // fully fitted; false: only screened (heldout_rmse from the screening fit)
 };
 
 // How well the final basis materials and weights explain each cluster's

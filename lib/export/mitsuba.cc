@@ -68,20 +68,48 @@ XmlElement Bitmap(const std::string& name, const std::string& file) {
   return t;
 }
 
-// One lobe of the sum as a roughconductor BSDF with a baked reflectance texture.
-XmlElement Lobe(const NearestForm& f, const std::string& texture) {
+// One lobe of the sum: a roughconductor with a baked reflectance texture, or a
+// roughplastic with baked coat and base textures (see the header).
+XmlElement Lobe(const NearestForm& f, const std::string& specular, const std::string& base) {
   XmlElement b("bsdf");
-  b.Attr("type", "roughconductor");
+  const bool plastic = f.lobe == NearestForm::Lobe::kRoughPlastic;
+  b.Attr("type", plastic ? "roughplastic" : "roughconductor");
   b.Add(Named("string", "distribution", f.distribution == Distribution::kGGX ? "ggx" : "beckmann"));
   b.Add(Named("float", "alpha", XmlNumber(f.alpha)));
-  if (f.fresnel) {
-    b.Add(Named("float", "eta", XmlNumber(f.eta)));
+  if (plastic) {
+    b.Add(Named("float", "int_ior", XmlNumber(f.ior)));
+    b.Add(Named("float", "ext_ior", "1"));
+    b.Add(Named("boolean", "nonlinear", "true"));
+    b.Add(Bitmap("diffuse_reflectance", base));
+  } else if (!f.fresnel) {
+    b.Add(Named("string", "material", "none"));
+  } else if (f.k.isZero() && f.eta.maxCoeff() == f.eta.minCoeff()) {  // a dielectric
+    b.Add(Named("float", "eta", XmlNumber(f.eta[0])));
     b.Add(Named("float", "k", "0"));
   } else {
-    b.Add(Named("string", "material", "none"));
+    b.Add(Named("rgb", "eta", TripleRgb(f.eta)));
+    b.Add(Named("rgb", "k", TripleRgb(f.k)));
   }
-  b.Add(Bitmap("specular_reflectance", texture));
+  b.Add(Bitmap("specular_reflectance", specular));
   return b;
+}
+
+json LobeReport(const NearestForm& f) {
+  const char* dist = f.distribution == Distribution::kGGX ? "ggx" : "beckmann";
+  if (f.lobe == NearestForm::Lobe::kRoughPlastic)
+    return {{"plugin", "roughplastic"}, {"distribution", dist}, {"alpha", f.alpha}, {"int_ior", f.ior},
+            {"nonlinear", true}, {"diffuse_reflectance", {f.base[0], f.base[1], f.base[2]}},
+            {"internal_reflectance_mitsuba", f.plastic.internal_reflectance}};
+  json j = {{"plugin", "roughconductor"}, {"distribution", dist}, {"alpha", f.alpha},
+            {"specular_reflectance", {f.rs[0], f.rs[1], f.rs[2]}}};
+  if (f.fresnel) {
+    j["eta"] = {f.eta[0], f.eta[1], f.eta[2]};
+    j["k"] = {f.k[0], f.k[1], f.k[2]};
+  } else {
+    j["material"] = "none (F = 1)";
+  }
+  if (f.max_fresnel_error > 0) j["max_fresnel_error"] = f.max_fresnel_error;
+  return j;
 }
 
 // World-space normal map -> Mitsuba tangent-space normal map, encoded 0.5 n + 0.5.
@@ -249,15 +277,11 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
   int lobes = 0;
   for (const BasisMaterial& b : m.basis) {
     forms.push_back(MapToNearestForm(b, pairs));
-    lobes += forms.back().has_lobe;
+    lobes += forms.back().has_lobe();
     const NearestForm& f = forms.back();
     json jb = {{"name", b.name}, {"model", b.spec.Label()}, {"exact", f.exact}, {"mapping", f.how},
                {"relative_error", f.error}, {"diffuse_rd", {f.rd[0], f.rd[1], f.rd[2]}}};
-    if (f.has_lobe)
-      jb["roughconductor"] = {{"distribution", f.distribution == Distribution::kGGX ? "ggx" : "beckmann"},
-                              {"alpha", f.alpha},
-                              {"specular_reflectance", {f.rs[0], f.rs[1], f.rs[2]}},
-                              {"fresnel", f.fresnel ? Msg("dielectric, eta = ", f.eta, ", k = 0") : "none (F = 1)"}};
+    if (f.has_lobe()) jb["lobe"] = LobeReport(f);
     report["basis"].push_back(jb);
   }
   const int parts = 1 + lobes;
@@ -275,13 +299,26 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
   for (int k = 0; k < K; ++k) {
     const Image& w = m.weights[k];
     for (size_t i = 0; i < diffuse.pixels.size(); ++i) diffuse.pixels[i] += float(parts * w.pixels[i] * forms[k].rd[i % 3]);
-    if (!forms[k].has_lobe) continue;
-    Image spec(m.width, m.height, 3, 0.0f);
-    for (size_t i = 0; i < spec.pixels.size(); ++i) spec.pixels[i] = float(parts * w.pixels[i] * forms[k].rs[i % 3]);
-    const std::string file = Msg("textures/m", k, "_specular.exr");  // by index: names may hold any character
-    WriteImage((fs::path(dir) / file).string(), spec, PixelFormat::kFloat);
-    bsdfs.push_back(Lobe(forms[k], file));
-    bsdfs.back().Comment(Msg("basis material ", m.basis[k].name, " (", m.basis[k].spec.Label(), "): ", forms[k].how));
+    if (!forms[k].has_lobe()) continue;
+    const NearestForm& f = forms[k];
+    const bool plastic = f.lobe == NearestForm::Lobe::kRoughPlastic;
+    Image spec(m.width, m.height, 3, 0.0f), base;
+    for (size_t i = 0; i < spec.pixels.size(); ++i) spec.pixels[i] = float(parts * w.pixels[i] * (plastic ? 1.0 : f.rs[i % 3]));
+    // by index: names may hold any character
+    const std::string spec_file = Msg("textures/m", k, "_specular.exr"), base_file = Msg("textures/m", k, "_base.exr");
+    WriteImage((fs::path(dir) / spec_file).string(), spec, PixelFormat::kFloat);
+    if (plastic) {
+      // Weight x coupling, then the diffuse_reflectance with that coupling in Mitsuba.
+      const double f_int = f.plastic.internal_reflectance;
+      base = Image(m.width, m.height, 3, 0.0f);
+      for (size_t i = 0; i < base.pixels.size(); ++i) {
+        const double b = f.base[i % 3];
+        base.pixels[i] = float(BaseForCoupling(parts * w.pixels[i] * b / (1 - b * f_int), f_int));
+      }
+      WriteImage((fs::path(dir) / base_file).string(), base, PixelFormat::kFloat);
+    }
+    bsdfs.push_back(Lobe(f, spec_file, base_file));
+    bsdfs.back().Comment(Msg("basis material ", m.basis[k].name, " (", m.basis[k].spec.Label(), "): ", f.how));
   }
   WriteImage((fs::path(dir) / "textures/diffuse.exr").string(), diffuse, PixelFormat::kFloat);
   XmlElement diffuse_bsdf("bsdf");

@@ -19,13 +19,17 @@
 //                       the Mitsuba scene holds (used to check the export)
 //
 // Reflectance: each basis material k is mapped to its NearestForm (diffuse +
-// optional rough conductor, exact where a Mitsuba plugin matches). Instead
-// of blending by the weight maps (blendbsdf weights are scalar and assume
-// sum_k w_k = 1, neither of which holds for our per-channel NNLS weights),
-// the weights are baked into the reflectance textures and the parts are
-// summed exactly:
+// optional roughconductor or roughplastic lobe, exact where a Mitsuba plugin
+// matches). Instead of blending by the weight maps (blendbsdf weights are
+// scalar and assume sum_k w_k = 1, neither of which holds for our
+// per-channel NNLS weights), the weights are baked into the reflectance
+// textures and the parts are summed exactly:
 //   diffuse texture   sum_k w_k,c(x) rd_k,c          (one diffuse BSDF)
-//   lobe k texture    w_k,c(x) rs_k,c                (specular_reflectance of one roughconductor per lobe)
+//   lobe k texture    w_k,c(x) rs_k,c                (specular_reflectance of one roughconductor
+//                                                     per lobe; of the coat for roughplastic, rs = 1)
+//   base k texture    d with d / (1 - d F_int) = w_k,c(x) g_k,c (roughplastic's nonlinear
+//                     diffuse_reflectance: the base term is linear in the coupling g,
+//                     not in d; g = base / (1 - base F_int) of the form)
 // and the M parts are combined with nested blendbsdf of constant weights
 // (weight (M-i-1)/(M-i) at level i, i.e. the average of the parts) with every
 // texture multiplied by M. This equals f_c(x) = sum_k w_k,c(x) f_k,c per

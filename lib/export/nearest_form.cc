@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "brdf/fresnel.h"
+#include "brdf/microfacet.h"
 #include "core/error.h"
 
 namespace svbrdf {
@@ -78,7 +80,7 @@ NearestForm FitForm(const BasisMaterial& b, const DirectionPairs& d) {
       const double aa = Dot(diffuse, diffuse, 3, 0, 3, 0, n), ab = Dot(diffuse, lobe, 3, 0, 3, 0, n),
                    bb = Dot(lobe, lobe, 3, 0, 3, 0, n);
       NearestForm f;
-      f.has_lobe = true;
+      f.lobe = NearestForm::Lobe::kRoughConductor;
       f.distribution = dist;
       f.alpha = alpha;
       double err = 0;
@@ -97,23 +99,131 @@ NearestForm FitForm(const BasisMaterial& b, const DirectionPairs& d) {
   return best;
 }
 
+
+// Our conductor's Fresnel (Schlick or F82-tint form) for one channel.
+struct OurConductorF {
+  double f0, tint;
+  bool f82;
+  OurConductorF(const BasisMaterial& b, int ch)
+      : f0(ParamRgb(b, "f0")[ch]),
+        tint(b.spec.fresnel == FresnelMode::kF82Tint ? ParamRgb(b, "f82_tint")[ch] : 1.0),
+        f82(b.spec.fresnel == FresnelMode::kF82Tint) {}
+  double operator()(double c) const { return f82 ? brdf::FresnelF82Tint(c, f0, tint) : brdf::FresnelSchlickF0(c, f0); }
+};
+
+// Schlick / F82 conductor -> the complex index per channel with the same F0
+// (kappa from ConductorKappaFromF0) whose exact Fresnel is closest to ours
+// where the lobe reflects: min over eta of sum_j L_j^2 (F_ours - F)^2(<h|wo>_j),
+// L_j the lobe's feature without Fresnel. eta on a log grid over our range
+// [0.02, 6]; kappa must stay in [0, 10]. F0 above 0.9992 (eta 0.02, kappa 10)
+// cannot be reached and is clamped there (stated in `how`).
+void FitConductorIndex(const BasisMaterial& b, const DirectionPairs& d, NearestForm* f) {
+  std::vector<double> lobe2(d.size()), cosine(d.size());
+  for (size_t j = 0; j < d.size(); ++j) {
+    const Vec3 h = (d.wi[j] + d.wo[j]).normalized();
+    const double l = std::sqrt(d.weight[j]) * d.wi[j].z() * brdf::SmithMicrofacet(f->distribution, d.wi[j], d.wo[j], h, f->alpha);
+    lobe2[j] = l * l;
+    cosine[j] = h.dot(d.wo[j]);
+  }
+  const double kF0Max = brdf::ConductorF0(0.02, 10.0);
+  bool clamped = false;
+  std::vector<double> ours(d.size());
+  for (int ch = 0; ch < 3; ++ch) {
+    const OurConductorF our_f(b, ch);
+    for (size_t j = 0; j < d.size(); ++j) ours[j] = our_f(cosine[j]);
+    const double f0 = std::min(our_f(1.0), kF0Max);
+    clamped |= f0 < our_f(1.0) - 1e-12;
+    double best = std::numeric_limits<double>::infinity();
+    f->eta[ch] = 0.02;
+    f->k[ch] = 10;
+    for (int i = 0; i < 400; ++i) {
+      const double eta = 0.02 * std::pow(6.0 / 0.02, i / 399.0);
+      const double k = brdf::ConductorKappaFromF0(f0, eta);
+      if (k > 10 || std::abs(brdf::ConductorF0(eta, k) - f0) > 1e-9) continue;  // F0 not reachable with this eta
+      double e = 0;
+      for (size_t j = 0; j < d.size(); ++j) {
+        const double diff = ours[j] - brdf::FresnelConductor(cosine[j], eta, k);
+        e += lobe2[j] * diff * diff;
+      }
+      if (e < best) best = e, f->eta[ch] = eta, f->k[ch] = k;
+    }
+    for (int i = 0; i <= 900; ++i) {
+      const double c = std::cos(i * kPi / 1800);  // 0 .. 90 degrees in 0.1 degree steps
+      f->max_fresnel_error = std::max(f->max_fresnel_error,
+                                      std::abs(brdf::FresnelConductor(c, f->eta[ch], f->k[ch]) - our_f(c)));
+    }
+  }
+  f->how = Msg("nearest: roughconductor with the eta + i k per channel that keeps F0 and fits ",
+               b.spec.fresnel == FresnelMode::kF82Tint ? "the F82-tint" : "Schlick's", " curve best (max |dF| ",
+               f->max_fresnel_error, clamped ? "; F0 clamped to 0.9992" : "", ")");
+}
+
+std::vector<double> FormFeatures(const NearestForm& f, const DirectionPairs& d) {
+  std::vector<double> out(3 * d.size());
+  for (size_t j = 0; j < d.size(); ++j) {
+    const Rgb v = f.Eval(d.wi[j], d.wo[j]);
+    const double s = std::sqrt(d.weight[j]) * d.wi[j].z();
+    for (int c = 0; c < 3; ++c) out[3 * j + c] = s * v[c];
+  }
+  return out;
+}
+
 }  // namespace
 
 BasisMaterial NearestForm::AsBasis(const std::string& name) const {
   BasisMaterial b;
   b.name = name;
-  if (!has_lobe) {
-    b.spec.family = Family::kLambert;
-    b.params = {rd[0], rd[1], rd[2]};
-  } else {
-    b.spec = LobeSpec(distribution, fresnel);
-    b.params = {rd[0], rd[1], rd[2], rs[0], rs[1], rs[2], alpha, eta};
+  switch (lobe) {
+    case Lobe::kNone:
+      b.spec.family = Family::kLambert;
+      b.params = {rd[0], rd[1], rd[2]};
+      break;
+    case Lobe::kRoughConductor:
+      if (fresnel && rd.isZero() && (rs == Rgb::Ones()).all()) {  // a metal: our conductor model
+        b.spec.family = Family::kConductor;
+        b.spec.distribution = distribution;
+        b.spec.fresnel = FresnelMode::kExact;
+        b.params = {eta[0], eta[1], eta[2], k[0], k[1], k[2], alpha};
+      } else {
+        if (fresnel && (k.maxCoeff() > 0 || eta.maxCoeff() != eta.minCoeff()))
+          throw Error(Msg("basis material '", name, "': a coloured conductor lobe with a diffuse part has no model of ours"));
+        b.spec = LobeSpec(distribution, fresnel);
+        b.params = {rd[0], rd[1], rd[2], rs[0], rs[1], rs[2], alpha, fresnel ? eta[0] : 1.5};
+      }
+      break;
+    case Lobe::kRoughPlastic: {
+      // Invert BaseForCoupling twice: Mitsuba's coupling / base_scale = our g, then our rd with rd / (1 - rd F_int) = g.
+      b.spec.family = Family::kCoated;
+      b.spec.distribution = distribution;
+      const double f_int = brdf::DielectricInternalDiffuseReflectance(ior);
+      Rgb rd_ours;
+      for (int c = 0; c < 3; ++c) {
+        const double g = base[c] / (1 - base[c] * plastic.internal_reflectance) / base_scale;
+        rd_ours[c] = BaseForCoupling(g, f_int);
+      }
+      b.params = {rd_ours[0], rd_ours[1], rd_ours[2], alpha, ior};
+      break;
+    }
   }
   return b;
 }
 
+Rgb NearestForm::Eval(const Vec3& wi, const Vec3& wo) const {
+  if (wi.z() <= 0 || wo.z() <= 0) return Rgb::Zero();
+  Rgb f = rd / kPi;
+  if (lobe == Lobe::kRoughConductor) {
+    const Vec3 h = (wi + wo).normalized();
+    const double l = brdf::SmithMicrofacet(distribution, wi, wo, h, alpha);
+    for (int c = 0; c < 3; ++c) f[c] += rs[c] * l * (fresnel ? brdf::FresnelConductor(h.dot(wo), eta[c], k[c]) : 1.0);
+  } else if (lobe == Lobe::kRoughPlastic) {
+    f += plastic.Eval(base, /*nonlinear=*/true, wi, wo);
+  }
+  return f;
+}
+
 NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
   NearestForm f;
+  const Distribution dist = b.spec.distribution == Distribution::kGGX ? Distribution::kGGX : Distribution::kBeckmann;
   switch (b.spec.family) {
     case Family::kLambert:
       f.rd = ParamRgb(b, "rd");
@@ -122,12 +232,12 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
       break;
     case Family::kCookTorrance: {
       f.rd = ParamRgb(b, "rd");
-      f.has_lobe = true;
+      f.lobe = NearestForm::Lobe::kRoughConductor;
       f.rs = ParamRgb(b, "rs");
       f.alpha = Param(b, "roughness");
-      f.eta = Param(b, "ior");
+      f.eta = Rgb::Constant(Param(b, "ior"));
       f.fresnel = b.spec.fresnel != FresnelMode::kNone;
-      f.distribution = b.spec.distribution == Distribution::kGGX ? Distribution::kGGX : Distribution::kBeckmann;
+      f.distribution = dist;
       std::string approx;
       if (b.spec.distribution == Distribution::kBlinnGaussian) approx += "Blinn Gaussian -> Beckmann with alpha = m; ";
       if (b.spec.shadowing == Shadowing::kVCavity) approx += "V-cavity G -> Smith G; ";
@@ -136,14 +246,53 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
       f.how = f.exact ? "exact: diffuse + roughconductor" : "nearest: " + approx.substr(0, approx.size() - 2);
       break;
     }
+    case Family::kConductor:
+      f.lobe = NearestForm::Lobe::kRoughConductor;
+      f.rs = Rgb::Ones();
+      f.fresnel = true;
+      f.distribution = dist;
+      f.alpha = Param(b, "roughness");
+      if (b.spec.fresnel == FresnelMode::kExact) {
+        f.eta = ParamRgb(b, "eta");
+        f.k = ParamRgb(b, "kappa");
+        f.exact = true;
+        f.how = "exact: roughconductor with eta, k per channel";
+      } else {
+        FitConductorIndex(b, d, &f);
+      }
+      break;
+    case Family::kCoated:
+      f.lobe = NearestForm::Lobe::kRoughPlastic;
+      f.distribution = dist;
+      f.alpha = Param(b, "roughness");
+      f.ior = Param(b, "ior");
+      f.plastic = RoughPlastic::Make(dist, f.alpha, f.ior);
+      {
+        // Least-squares scale of Mitsuba's base term t(mu_i) t(mu_o) onto ours
+        // (1 - F(mu_i)) (1 - F(mu_o)) over the direction pairs (the coats are equal).
+        double tt = 0, to = 0;
+        for (size_t j = 0; j < d.size(); ++j) {
+          const double w = d.weight[j] * d.wi[j].z() * d.wi[j].z();
+          const double mi = f.plastic.Transmittance(d.wi[j].z()) * f.plastic.Transmittance(d.wo[j].z());
+          const double ours = (1 - brdf::FresnelDielectric(d.wi[j].z(), f.ior)) * (1 - brdf::FresnelDielectric(d.wo[j].z(), f.ior));
+          tt += w * mi * mi;
+          to += w * mi * ours;
+        }
+        f.base_scale = tt > 0 ? to / tt : 1.0;
+        const Rgb rd = ParamRgb(b, "rd");
+        const double f_int = brdf::DielectricInternalDiffuseReflectance(f.ior);
+        for (int c = 0; c < 3; ++c)
+          f.base[c] = BaseForCoupling(f.base_scale * rd[c] / (1 - rd[c] * f_int), f.plastic.internal_reflectance);
+      }
+      f.how = Msg("nearest: roughplastic (nonlinear); same coat, base through the rough coat's transmittance, scaled by ",
+                  f.base_scale, " (least squares; F_int ", f.plastic.internal_reflectance, " vs ours ",
+                  brdf::DielectricInternalDiffuseReflectance(f.ior), ")");
+      break;
     default:
       f = FitForm(b, d);
       break;
   }
-  f.error = RelativeFeatureError(BrdfFeatures(b.spec, b.params, d), [&] {
-    const BasisMaterial m = f.AsBasis(b.name);
-    return BrdfFeatures(m.spec, m.params, d);
-  }());
+  f.error = RelativeFeatureError(BrdfFeatures(b.spec, b.params, d), FormFeatures(f, d));
   return f;
 }
 

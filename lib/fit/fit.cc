@@ -21,8 +21,8 @@ namespace {
 constexpr int kBatch = 64;
 // Starts are compared on this many samples with few iterations; only the best
 // is refined on all samples (the screening costs a fraction of one full fit).
-constexpr int64_t kScreenSamples = 2000;
-constexpr int kScreenIterations = 25;
+constexpr int64_t kScreenSamples = 1000;
+constexpr int kScreenIterations = 15;
 // Samples of the first full solve; later stages grow 4x (see FitModel).
 constexpr int64_t kStageSamples = 4000;
 

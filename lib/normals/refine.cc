@@ -196,19 +196,15 @@ class Refiner {
   void SolveNormal(const Pooled& fit, const std::vector<std::vector<WeightedBasis>>& basis, double sigma,
                    double* ab) const {
     if (basis[0].empty() || fit.samples.empty()) return;
-    ceres::Problem::Options po;
-    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(po);
-    ceres::CauchyLoss loss(std::max(1e-12, o_.robust_sigmas * sigma));
-    for (size_t i = 0; i < fit.samples.size(); ++i) {
-      const std::vector<WeightedBasis>& b = basis[fit.source[i]];
-      if (b.empty()) continue;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<NormalSampleCost, 3, 2>(
-                                   new NormalSampleCost{&fit.samples[i], &b, std::sqrt(fit.weight[i])}),
-                               o_.robust_sigmas > 0 ? &loss : nullptr, ab);
-    }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<TiltPrior, 2, 2>(new TiltPrior{sigma / o_.prior_tilt}),
-                             nullptr, ab);
+    std::vector<const std::vector<WeightedBasis>*> per_sample(fit.samples.size());
+    for (size_t i = 0; i < fit.samples.size(); ++i) per_sample[i] = &basis[fit.source[i]];
+    ceres::Problem problem;
+    const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, o_.robust_sigmas * sigma) : 0.0;
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<normals::NormalBatchCost, ceres::DYNAMIC, 2>(
+            new normals::NormalBatchCost{&fit.samples, &per_sample, &fit.weight, cauchy, sigma / o_.prior_tilt},
+            int(3 * fit.samples.size() + 2)),
+        nullptr, ab);
     for (int j = 0; j < 2; ++j) {
       problem.SetParameterLowerBound(ab, j, -max_ab_);
       problem.SetParameterUpperBound(ab, j, max_ab_);
@@ -216,8 +212,9 @@ class Refiner {
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::DENSE_QR;
     so.max_num_iterations = o_.max_iterations;
-    so.function_tolerance = 1e-8;
-    so.parameter_tolerance = 1e-8;
+    // A tilt to 1e-6 is far below what a photo resolves; tighter only adds iterations.
+    so.function_tolerance = 1e-6;
+    so.parameter_tolerance = 1e-6;
     so.num_threads = 1;  // parallel over texels instead
     so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;

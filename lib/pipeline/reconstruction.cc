@@ -185,7 +185,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   if (no.Enabled()) summary["normals"] = {{"mode", no.mode}, {"kept", nr.kept}, {"rounds", normals_rounds}};
   for (const auto& m : est.model_choices)
     summary["model_selection"].push_back({{"cluster", m.cluster}, {"model", m.label}, {"heldout_rmse", m.heldout_rmse},
-                                          {"params", m.num_params}, {"chosen", m.chosen}});
+                                          {"params", m.num_params}, {"chosen", m.chosen}, {"finalist", m.finalist}});
 
   if (job.report) {
     timer.Start("report");

@@ -1,0 +1,327 @@
+#!/usr/bin/env python3
+"""Writes a capture in the dataset contract (`svbrdf-scene/1`) rendered by an
+independent renderer, Mitsuba 3, so that the reconstruction is measured on
+images its own generator did not make (issue 8's "independent captures").
+
+The object (a sphere, a torus, or any OBJ, with or without texture
+coordinates) is painted with three materials that Mitsuba models natively and
+this project models with its own code:
+  metal   roughconductor, GGX, alpha 0.2, copper eta/k (RGB values below)
+  plastic roughplastic, GGX, alpha 0.1, ior 1.5, red diffuse base
+  paint   diffuse, matte green
+mixed per vertex by smooth weights (three regions with soft borders, blended by
+nested `blendbsdf`s through mesh attributes, so no texture coordinates are
+needed). Point lights (W/sr), one per photo, half of them a flash beside the
+lens; PINHOLE cameras on a sphere around the object; masks from a coverage pass
+(the object as a unit emitter, box filter: pixel value = covered fraction,
+kept where >= 0.5). `--bounces N` renders N indirect bounces (interreflection
+on the torus); `--noise` adds relative Gaussian noise. Held-out views with
+lights never used for fitting go to heldout/scene.json.
+
+Needs the Mitsuba 3 wheel (not a Debian package):
+    python3 -m venv /work/scratch/mi && /work/scratch/mi/bin/pip install mitsuba
+    /work/scratch/mi/bin/python scripts/mitsuba_capture.py --shape torus --out out/mi_torus
+Then: svbrdf reconstruct out/mi_torus/scene.json --out MAT;
+      svbrdf relight MAT out/mi_torus/heldout/scene.json --out RELIT;
+      svbrdf evaluate RELIT out/mi_torus/heldout/scene.json
+(scripts/batch.sh CAPTURES OUT --local runs all three over a folder of such
+captures and collects a summary table).
+"""
+import argparse
+import json
+import math
+import os
+import shutil
+import sys
+import time
+
+import numpy as np
+
+# Copper, RGB (R 650 nm, G 550 nm, B 450 nm) from Johnson & Christy 1972 via
+# refractiveindex.info (the same source as lib/brdf/metals.h).
+COPPER_ETA = [0.27105, 0.67693, 1.31640]
+COPPER_K = [3.60920, 2.62480, 2.29210]
+PLASTIC_BASE = [0.55, 0.06, 0.04]
+PAINT = [0.10, 0.42, 0.14]
+
+
+def sphere(detail):
+    n_lat, n_lon = detail, 2 * detail
+    verts, uvs, faces = [], [], []
+    for i in range(n_lat + 1):
+        th = math.pi * i / n_lat
+        for j in range(n_lon + 1):
+            ph = 2 * math.pi * j / n_lon
+            verts.append([0.5 * math.sin(th) * math.cos(ph), 0.5 * math.cos(th), -0.5 * math.sin(th) * math.sin(ph)])
+            uvs.append([j / n_lon, 1 - i / n_lat])
+    w = n_lon + 1
+    for i in range(n_lat):
+        for j in range(n_lon):
+            a, b, c, d = i * w + j, i * w + j + 1, (i + 1) * w + j, (i + 1) * w + j + 1
+            if i > 0:
+                faces.append([a, c, b])
+            if i < n_lat - 1:
+                faces.append([b, c, d])
+    return np.array(verts), np.array(uvs), np.array(faces)
+
+
+def torus(detail, big=0.36, small=0.16):
+    n_u, n_v = 2 * detail, detail
+    verts, uvs, faces = [], [], []
+    for i in range(n_u + 1):
+        u = 2 * math.pi * i / n_u
+        for j in range(n_v + 1):
+            v = 2 * math.pi * j / n_v
+            r = big + small * math.cos(v)
+            verts.append([r * math.cos(u), small * math.sin(v), -r * math.sin(u)])
+            uvs.append([i / n_u, j / n_v])
+    w = n_v + 1
+    for i in range(n_u):
+        for j in range(n_v):
+            a, b, c, d = i * w + j, i * w + j + 1, (i + 1) * w + j, (i + 1) * w + j + 1
+            faces += [[a, c, b], [b, c, d]]  # counter-clockwise seen from outside
+    return np.array(verts), np.array(uvs), np.array(faces)
+
+
+def read_obj(path):
+    verts, faces = [], []
+    for line in open(path):
+        p = line.split()
+        if not p:
+            continue
+        if p[0] == "v":
+            verts.append([float(x) for x in p[1:4]])
+        elif p[0] == "f":
+            idx = [int(x.split("/")[0]) - 1 for x in p[1:]]
+            for k in range(1, len(idx) - 1):
+                faces.append([idx[0], idx[k], idx[k + 1]])
+    v = np.array(verts)
+    v -= 0.5 * (v.min(0) + v.max(0))
+    v *= 0.5 / np.linalg.norm(v, axis=1).max()
+    return v, None, np.array(faces)
+
+
+def vertex_normals(v, f):
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # area-weighted
+    n = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(n, f[:, k], fn)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+
+
+def paint(v, rng, border):
+    """Three regions around well-separated seed vertices, soft borders of
+    width ~border metres: weight_i = softmax(-distance_i / border)."""
+    seeds = [v[rng.integers(len(v))]]
+    for _ in range(2):
+        d = np.min([np.linalg.norm(v - s, axis=1) for s in seeds], axis=0)
+        seeds.append(v[np.argmax(d)])
+    d = np.stack([np.linalg.norm(v - s, axis=1) for s in seeds], axis=1)
+    z = -(d - d.min(1, keepdims=True)) / border
+    w = np.exp(z)
+    return w / w.sum(1, keepdims=True)
+
+
+def look_at_pose(eye, target, rng):
+    """cam_from_world (x right, y down, z forward) looking from eye at target, random roll."""
+    z = target - eye
+    z /= np.linalg.norm(z)
+    up = rng.normal(size=3)
+    x = np.cross(z, up)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    r = np.stack([x, y, z])  # rows: camera axes in world
+    return r, -r @ eye
+
+
+def quat(r):
+    w = math.sqrt(max(0.0, 1 + r[0, 0] + r[1, 1] + r[2, 2])) / 2
+    x = math.sqrt(max(0.0, 1 + r[0, 0] - r[1, 1] - r[2, 2])) / 2
+    y = math.sqrt(max(0.0, 1 - r[0, 0] + r[1, 1] - r[2, 2])) / 2
+    z = math.sqrt(max(0.0, 1 - r[0, 0] - r[1, 1] + r[2, 2])) / 2
+    x = math.copysign(x, r[2, 1] - r[1, 2])
+    y = math.copysign(y, r[0, 2] - r[2, 0])
+    z = math.copysign(z, r[1, 0] - r[0, 1])
+    q = np.array([w, x, y, z])
+    return (q / np.linalg.norm(q)).tolist()
+
+
+def write_obj(path, v, uv, f):
+    with open(path, "w") as out:
+        out.write("# mitsuba_capture.py mesh\n")
+        for p in v:
+            out.write("v %.9g %.9g %.9g\n" % tuple(p))
+        if uv is not None:
+            for t in uv:
+                out.write("vt %.9g %.9g\n" % tuple(t))
+        for t in f + 1:
+            if uv is not None:
+                out.write("f %d/%d %d/%d %d/%d\n" % (t[0], t[0], t[1], t[1], t[2], t[2]))
+            else:
+                out.write("f %d %d %d\n" % tuple(t))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--shape", default="sphere", help="sphere | torus | path to an OBJ (its UVs are dropped)")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--views", type=int, default=40)
+    ap.add_argument("--heldout", type=int, default=8)
+    ap.add_argument("--width", type=int, default=320)
+    ap.add_argument("--height", type=int, default=240)
+    ap.add_argument("--spp", type=int, default=32)
+    ap.add_argument("--bounces", type=int, default=0, help="indirect bounces (0 = direct light only)")
+    ap.add_argument("--noise", type=float, default=0.01, help="relative Gaussian noise per pixel")
+    ap.add_argument("--border", type=float, default=0.02, help="soft border width between materials (m)")
+    ap.add_argument("--no-uvs", action="store_true", help="write the mesh without texture coordinates")
+    ap.add_argument("--detail", type=int, default=64)
+    ap.add_argument("--seed", type=int, default=7)
+    args = ap.parse_args()
+
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    rng = np.random.default_rng(args.seed)
+    t0 = time.time()
+
+    if args.shape == "sphere":
+        v, uv, f = sphere(args.detail)
+    elif args.shape == "torus":
+        v, uv, f = torus(args.detail)
+    else:
+        v, uv, f = read_obj(args.shape)
+    if args.no_uvs:
+        uv = None
+    n = vertex_normals(v, f)
+    w = paint(v, rng, args.border)
+
+    tmp = args.out.rstrip("/") + ".partial"
+    shutil.rmtree(tmp, ignore_errors=True)
+    for d in ("images", "masks", "heldout/images", "heldout/masks", "truth"):
+        os.makedirs(os.path.join(tmp, d))
+    write_obj(os.path.join(tmp, "mesh.obj"), v, uv, f)
+    np.save(os.path.join(tmp, "truth", "vertex_weights.npy"), w)
+
+    metal = {"type": "roughconductor", "distribution": "ggx", "alpha": 0.2,
+             "eta": {"type": "rgb", "value": COPPER_ETA}, "k": {"type": "rgb", "value": COPPER_K}}
+    plastic = {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1, "int_ior": 1.5, "ext_ior": 1.0,
+               "diffuse_reflectance": {"type": "rgb", "value": PLASTIC_BASE}, "nonlinear": False}
+    paint_bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": PAINT}}
+    material = {"type": "blendbsdf", "weight": {"type": "mesh_attribute", "name": "vertex_w12"},
+                "bsdf_0": metal,
+                "bsdf_1": {"type": "blendbsdf", "weight": {"type": "mesh_attribute", "name": "vertex_w2"},
+                           "bsdf_0": plastic, "bsdf_1": paint_bsdf}}
+
+    def painted_mesh(bsdf, emitter=None):
+        """The object as a Mitsuba mesh with the blend weights as vertex attributes."""
+        props = mi.Properties()
+        props["bsdf"] = mi.load_dict(bsdf)
+        if emitter is not None:
+            props["emitter"] = mi.load_dict(emitter)
+        m = mi.Mesh("object", len(v), len(f), props=props, has_vertex_normals=True)
+        p = mi.traverse(m)
+        p["vertex_positions"] = v.astype(np.float32).ravel().tolist()
+        p["vertex_normals"] = n.astype(np.float32).ravel().tolist()
+        p["faces"] = f.astype(np.uint32).ravel().tolist()
+        p.update()
+        w12 = w[:, 1] + w[:, 2]
+        m.add_attribute("vertex_w12", 1, w12.astype(np.float32).tolist())
+        m.add_attribute("vertex_w2", 1, (w[:, 2] / np.maximum(w12, 1e-9)).astype(np.float32).tolist())
+        return m
+
+    shaded = painted_mesh(material)
+    coverage_mesh = painted_mesh({"type": "diffuse", "reflectance": 0.0}, {"type": "area", "radiance": 1.0})
+
+    fx = 1.2 * args.width
+    cx, cy = args.width / 2, args.height / 2
+    fov = math.degrees(2 * math.atan(args.width / 2 / fx))
+    flash_offset = np.array([0.06, -0.04, 0.0])
+    total = args.views + args.heldout
+
+    def sample_dir():
+        d = rng.normal(size=3)
+        return d / np.linalg.norm(d)
+
+    sets = {"": {"lights": [], "images": []}, "heldout": {"lights": [], "images": []}}
+    for k in range(total):
+        held = k >= args.views
+        s = sets["heldout" if held else ""]
+        idx = len(s["images"])
+        eye = 2.2 * sample_dir()
+        r, t = look_at_pose(eye, np.zeros(3), rng)
+        flash = (k % 2 == 1) and not held
+        if flash:
+            light_world = eye + r.T @ flash_offset
+            light = {"id": idx + 1, "type": "point", "frame": "camera", "position": flash_offset.tolist(),
+                     "intensity": [6.0, 6.0, 6.0]}
+            intensity = 6.0
+        else:
+            # A lamp on the camera's side of the object, so the view sees lit surface.
+            d = sample_dir()
+            if d @ eye < 0:
+                d = -d
+            light_world = 2.5 * d
+            light = {"id": idx + 1, "type": "point", "position": light_world.tolist(), "intensity": [10.0] * 3}
+            intensity = 10.0
+        s["lights"].append(light)
+        name = "images/%04d.exr" % idx
+        s["images"].append({"file": name, "camera": 1, "light": idx + 1,
+                            "cam_from_world": {"q": quat(r), "t": t.tolist()}, "exposure": 1.0,
+                            "mask": "masks/%04d.png" % idx})
+
+        # Mitsuba's camera frame is x left, y up, z forward: ours turned 180 deg about z.
+        world_from_cam = np.eye(4)
+        world_from_cam[:3, :3] = r.T @ np.diag([-1.0, -1.0, 1.0])
+        world_from_cam[:3, 3] = eye
+        sensor = {"type": "perspective", "fov": fov, "fov_axis": "x",
+                  "to_world": mi.ScalarTransform4f(world_from_cam.tolist()),
+                  "film": {"type": "hdrfilm", "width": args.width, "height": args.height,
+                           "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+                  "sampler": {"type": "independent", "sample_count": args.spp, "seed": args.seed * 1000 + k}}
+        scene = mi.load_dict({
+            "type": "scene",
+            "integrator": {"type": "path", "max_depth": args.bounces + 2, "hide_emitters": True},
+            "sensor": sensor,
+            "light": {"type": "point", "position": light_world.tolist(),
+                      "intensity": {"type": "rgb", "value": [intensity] * 3}},
+            "object": shaded,
+        })
+        img = np.array(mi.render(scene), dtype=np.float64)[:, :, :3]
+        if args.noise > 0:
+            img *= 1 + args.noise * rng.normal(size=img.shape)
+        img = np.maximum(img, 0).astype(np.float32)
+        cover_sensor = dict(sensor)
+        cover_sensor["sampler"] = {"type": "independent", "sample_count": 16, "seed": k}
+        cover = mi.load_dict({
+            "type": "scene", "integrator": {"type": "direct"}, "sensor": cover_sensor,
+            "object": coverage_mesh,
+        })
+        coverage = np.array(mi.render(cover))[:, :, 0]
+        mask = np.where(coverage >= 0.5, 255, 0).astype(np.uint8)
+        folder = os.path.join(tmp, "heldout") if held else tmp
+        mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(os.path.join(folder, name))
+        mi.Bitmap(mask, pixel_format=mi.Bitmap.PixelFormat.Y).write(os.path.join(folder, "masks/%04d.png" % idx))
+        print("  rendered %s%s  (%d/%d, %.0f s)" % ("heldout/" if held else "", name, k + 1, total, time.time() - t0),
+              flush=True)
+
+    camera = {"id": 1, "model": "PINHOLE", "width": args.width, "height": args.height, "params": [fx, fx, cx, cy]}
+    truth = {"renderer": "mitsuba %s scalar_rgb, path max_depth %d, %d spp" % (mi.__version__, args.bounces + 2,
+                                                                                   args.spp),
+             "materials": {"metal": metal, "plastic": plastic, "paint": paint_bsdf},
+             "vertex_weights": "truth/vertex_weights.npy (metal, plastic, paint per vertex of mesh.obj)",
+             "heldout_scene": "heldout/scene.json", "options": vars(args)}
+    for key, s in sets.items():
+        doc = {"format": "svbrdf-scene/1", "mesh": "mesh.obj" if key == "" else "../mesh.obj",
+               "images_color_space": "linear", "cameras": [camera], "lights": s["lights"], "images": s["images"]}
+        if key == "":
+            doc["ground_truth"] = truth
+        with open(os.path.join(tmp, key, "scene.json"), "w") as out:
+            json.dump(doc, out, indent=1)
+    if os.path.exists(args.out):
+        shutil.rmtree(args.out)
+    os.rename(tmp, args.out)
+    print("capture: %s/scene.json (%d views, %d held out) in %.0f s" % (args.out, args.views, args.heldout,
+                                                                        time.time() - t0))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
