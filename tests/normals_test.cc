@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/loss_function.h>
 
 #include <algorithm>
 #include <array>
@@ -250,6 +251,44 @@ TEST(NormalSampleCost, JetGradientMatchesFiniteDifferences) {
     const Rgb f = EvalModelD(m.spec, m.params.data(), wi, wo);
     EXPECT_NEAR(r[0], 0.9 * f[0] * 0.8 - 0.1, 1e-12) << label;
   }
+}
+
+// The batched cost (one block per texel) must have the objective of
+// per-sample blocks under ceres::CauchyLoss plus the tilt prior.
+TEST(NormalBatchCost, EqualsPerSampleCauchyLossAndPrior) {
+  const BasisMaterial m = RedPlastic();
+  std::vector<WeightedBasis> basis(1);
+  basis[0].spec = &m.spec;
+  basis[0].params = m.params;
+  basis[0].w[0] = basis[0].w[1] = basis[0].w[2] = 1.0;
+  const std::vector<WeightedBasis> none;
+  std::vector<TexelSample> samples;
+  std::vector<const std::vector<WeightedBasis>*> per_sample;
+  std::vector<double> weight;
+  for (int i = 0; i < 6; ++i) {
+    const Vec3 wi = Vec3(0.1 * i - 0.3, 0.2, 0.9).normalized(), wo = Vec3(-0.2, 0.05 * i, 0.8).normalized();
+    samples.push_back({{wi.x(), wi.y(), wi.z()}, {wo.x(), wo.y(), wo.z()}, 0.7, {0.3 * i, 0.1, 0.05}});
+    per_sample.push_back(i == 4 ? &none : &basis);  // a sample without materials contributes nothing
+    weight.push_back(i % 2 ? 0.5 : 1.0);
+  }
+  const double c = 0.05, prior = 0.3, ab[2] = {0.08, -0.04};
+  const normals::NormalBatchCost batch{&samples, &per_sample, &weight, c, prior};
+  std::vector<double> r(3 * samples.size() + 2);
+  ASSERT_TRUE(batch(ab, r.data()));
+  double batched = 0;
+  for (double v : r) batched += v * v;
+  const double prior_sq = prior * prior * (ab[0] * ab[0] + ab[1] * ab[1]);
+  double expected = prior_sq;
+  const ceres::CauchyLoss loss(c);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    if (per_sample[i]->empty()) continue;
+    double ri[3], rho[3];
+    NormalSampleCost{&samples[i], per_sample[i], std::sqrt(weight[i])}(ab, ri);
+    loss.Evaluate(ri[0] * ri[0] + ri[1] * ri[1] + ri[2] * ri[2], rho);
+    expected += rho[0];
+  }
+  EXPECT_GT(expected, 1.01 * prior_sq);  // the samples count
+  EXPECT_NEAR(batched, expected, 1e-12 * expected);
 }
 
 TEST(NormalMap, RoundTripsThroughTheMaterialLookup) {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <unistd.h>
 
 #include "calib/board.h"
@@ -13,10 +14,15 @@
 #include "calib/intrinsics.h"
 #include "calib/light_probe.h"
 #include "calib/pnp.h"
+#include "calib/segment.h"
 #include "core/error.h"
+#include "evaluate/metrics.h"
 #include "io/scene.h"
+#include "pipeline/reconstruction.h"
+#include "relight/relight.h"
 #include "registration/board_bundle.h"
 #include "registration/capture_job.h"
+#include "registration/colmap_sfm.h"
 #include "registration/project.h"
 #include "registration/silhouette.h"
 #include "synth/raw_photos.h"
@@ -39,6 +45,7 @@ struct RawSet {
   nlohmann::json desc;
   std::vector<std::string> bracket0;  // calibration photos, then the longest exposure of every photo
   int num_calibration = 0;
+  nlohmann::json capture_report;
 };
 
 class Registration : public ::testing::Test {
@@ -73,6 +80,18 @@ class Registration : public ::testing::Test {
     raw_ = nullptr;
   }
   static const RawSet& Raw() { return *raw_; }
+  // `capture` on the raw set, run once for the tests that need it.
+  static const nlohmann::json& CaptureReport() {
+    if (raw_->capture_report.is_null()) {
+      CaptureJob job;
+      job.photos_dir = raw_->dir;
+      job.out_dir = CaptureDir();
+      job.progress = false;
+      raw_->capture_report = RunCapture(job);
+    }
+    return raw_->capture_report;
+  }
+  static std::string CaptureDir() { return (fs::path(raw_->dir).parent_path() / "capture").string(); }
   static RawSet* raw_;
 };
 RawSet* Registration::raw_ = nullptr;
@@ -85,6 +104,51 @@ TEST(RegistrationMath, ProjectTMatchesCameraProject) {
   double px[2];
   ProjectT(c.model, c.params.data(), x.data(), px);
   EXPECT_NEAR((Vec2(px[0], px[1]) - c.Project(x)).norm(), 0.0, 1e-9);
+}
+
+// A COLMAP text model in its own frame and units (a similarity away from the
+// board frame), as `colmap model_converter` writes it, placed back in metres
+// by the images whose board pose is known.
+TEST(RegistrationMath, ColmapModelPlacedByBoardPoses) {
+  std::vector<Rigid3> truth;
+  for (int i = 0; i < 6; ++i)
+    truth.push_back(Rigid3::LookAt(Vec3(0.5 * std::cos(i), 0.5 * std::sin(i), -0.4 - 0.03 * i), Vec3(0.1, 0.05, 0), Vec3(0, 0, -1)));
+  const double s = 0.37;  // x_board = s * R * x_colmap + T
+  const Eigen::Quaterniond R(Eigen::AngleAxisd(0.7, Vec3(1, -2, 0.5).normalized()));
+  const Vec3 T(0.2, -0.1, 0.3);
+  std::string tmpl = (fs::temp_directory_path() / "svbrdf_colmap_XXXXXX").string();
+  ASSERT_TRUE(mkdtemp(tmpl.data()));
+  {
+    std::ofstream cams(tmpl + "/cameras.txt"), ims(tmpl + "/images.txt");
+    cams << "# Camera list\n1 PINHOLE 480 360 500 500 240 180\n";
+    ims << "# Image list\n";
+    ims.precision(17);
+    for (size_t i = 0; i < truth.size(); ++i) {
+      const Eigen::Quaterniond q = truth[i].rotation * R;
+      const Vec3 t = (truth[i].rotation * T + truth[i].translation) / s;
+      ims << i + 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x() << " " << t.y() << " "
+          << t.z() << " 1 img" << i << ".png\n\n";
+    }
+  }
+  const ColmapModel model = ReadColmapText(tmpl);
+  fs::remove_all(tmpl);
+  std::map<std::string, Rigid3> known;  // the board seen in 4 of the 6 images
+  for (int i = 0; i < 4; ++i) known["img" + std::to_string(i) + ".png"] = truth[i];
+  const ColmapToBoard align = AlignColmapToBoard(model, known);
+  EXPECT_EQ(align.matched, 4);
+  EXPECT_NEAR(align.scale, s, 1e-9);
+  EXPECT_LT(align.centre_rms_m, 1e-9);
+  for (size_t i = 0; i < truth.size(); ++i) {  // including the two without the board
+    const Rigid3 p = align.CamFromBoard(model.images[i].cam_from_world);
+    EXPECT_LT(AngleDeg(p.rotation, truth[i].rotation), 1e-6);
+    EXPECT_LT((p.translation - truth[i].translation).norm(), 1e-9);
+  }
+  const ColmapToBoard by_distance = ScaleColmapByDistance(
+      model, "img0.png", "img3.png", (truth[0].CentreInWorld() - truth[3].CentreInWorld()).norm());
+  EXPECT_NEAR(by_distance.scale, s, 1e-9);
+  known.erase("img0.png");
+  known.erase("img1.png");
+  EXPECT_THROW(AlignColmapToBoard(model, known), Error);  // two images cannot place a model
 }
 
 TEST_F(Registration, IntrinsicsFromSyntheticBoardViews) {
@@ -240,12 +304,8 @@ TEST_F(Registration, HdrMergeIsLinear) {
 // poses, lamps and registration match the hidden truth.
 TEST_F(Registration, CaptureJobOnRawPhotos) {
   const RawSet& raw = Raw();
-  CaptureJob job;
-  job.photos_dir = raw.dir;
-  job.out_dir = (fs::path(raw.dir).parent_path() / "capture").string();
-  job.progress = false;
-  const nlohmann::json report = RunCapture(job);
-  const Scene scene = LoadScene(job.out_dir + "/scene.json");
+  const nlohmann::json& report = CaptureReport();
+  const Scene scene = LoadScene(CaptureDir() + "/scene.json");
   ASSERT_GE(scene.images.size(), 7u);
   EXPECT_LT(std::abs(scene.cameras[0].fx() / raw.truth.camera.fx() - 1), 0.005);
   double worst_deg = 0, worst_mm = 0, worst_lamp_mm = 0, min_iou = 1;
@@ -266,7 +326,88 @@ TEST_F(Registration, CaptureJobOnRawPhotos) {
   EXPECT_LT(worst_lamp_mm, 8.0);
   EXPECT_GT(min_iou, 0.99);
   for (const Light& l : scene.lights) EXPECT_NEAR(l.intensity[0], 1.0, 0.05);  // RawPhotoOptions::lamp_intensity
-  fs::remove_all(job.out_dir);
+}
+
+// Raw photos -> capture -> reconstruct against the same reconstruction from
+// the ground-truth capture of the same photos (held-out PSNR). Small and fast:
+// 16 x 16 texels, at most 2 basis materials.
+double HeldOutPsnr(const std::string& scene_path, const std::string& work, const std::string& heldout_path) {
+  ReconstructionJob job;
+  job.scene_path = scene_path;
+  job.out_dir = work + "/material";
+  job.gather.texture_size = 16;
+  job.gather.progress = false;
+  job.estimate.progress = false;
+  job.estimate.max_clusters = 2;
+  job.report = false;
+  RunReconstruction(job);
+  const Material rec = LoadMaterial(job.out_dir);
+  const Scene held = LoadScene(heldout_path);
+  RelightOptions rl;
+  rl.progress = false;
+  RelightScene(rec, held, work + "/relit", rl);
+  return CompareToScene(held, work + "/relit").mean_psnr_srgb;
+}
+
+TEST_F(Registration, RawPhotosToMaterialNearTheTruthCapture) {
+  const RawSet& raw = Raw();
+  CaptureReport();
+  const Scene captured = LoadScene(CaptureDir() + "/scene.json");
+  // The ground-truth capture restricted to the photos `capture` kept.
+  Scene truth = LoadScene(raw.dir + "/truth/scene.json");
+  std::vector<ImageEntry> kept;
+  for (const ImageEntry& e : truth.images)
+    for (const ImageEntry& c : captured.images)
+      if (fs::path(c.file).filename() == fs::path(e.file).filename()) kept.push_back(e);
+  ASSERT_EQ(kept.size(), captured.images.size());
+  truth.images = kept;
+  SaveScene(truth, raw.dir + "/truth/same_photos.json");
+  // The capture with the mesh at its true placement: isolates registration.
+  Scene true_mesh = captured;
+  true_mesh.mesh = fs::absolute(raw.dir + "/truth/gt/mesh.obj").string();
+  SaveScene(true_mesh, CaptureDir() + "/scene_true_mesh.json");
+  const std::string work = fs::path(raw.dir).parent_path().string();
+  const std::string held = raw.dir + "/truth/heldout/scene.json";
+  const double from_raw = HeldOutPsnr(CaptureDir() + "/scene.json", work + "/e2e_raw", held);
+  const double from_raw_true_mesh = HeldOutPsnr(CaptureDir() + "/scene_true_mesh.json", work + "/e2e_mesh", held);
+  const double from_truth = HeldOutPsnr(raw.dir + "/truth/same_photos.json", work + "/e2e_truth", held);
+  std::printf("held-out PSNR (%zu photos): raw photos -> capture -> reconstruct %.2f dB; the same with the mesh at its "
+              "true placement %.2f dB; ground-truth capture %.2f dB\n",
+              kept.size(), from_raw, from_raw_true_mesh, from_truth);
+  // Measured 23.82 / 24.00 / 23.90 dB. (On a finer material, 64 texels and up
+  // to 6 materials, where the truth capture reaches 37.5 dB, the registered
+  // mesh costs 1.5 dB: its 0.06 mm error flips pixel coverage along the
+  // held-out silhouettes; see README.)
+  EXPECT_GT(from_raw_true_mesh, from_truth - 1.0);
+  EXPECT_GT(from_raw, from_truth - 1.0);
+}
+
+// GrabCut masks seeded by the rough mesh placement of capture.json (5 deg /
+// 2 cm off, up to ~20 px here) against the true object masks. The undecided
+// band must cover that error: with a 6 px band GrabCut reached IoU 0.77,
+// 15 px 0.92, 25 px 0.94.
+TEST_F(Registration, GrabCutMasksFromRoughPlacement) {
+  const RawSet& raw = Raw();
+  const Mesh mesh = LoadMesh(raw.dir + "/mesh.obj");
+  const auto& pose_j = raw.desc["mesh"]["world_from_mesh"];
+  Rigid3 rough;
+  rough.rotation = Eigen::Quaterniond(pose_j["q"][0], pose_j["q"][1], pose_j["q"][2], pose_j["q"][3]);
+  rough.translation = Vec3(pose_j["t"][0], pose_j["t"][1], pose_j["t"][2]);
+  double iou_prior = 0, iou_cut = 0, worst = 1;
+  const size_t n = raw.truth.cam_from_world.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Image truth = ReadImage(raw.dir + "/" + raw.desc["photos"][i]["mask"].get<std::string>());
+    const Image prior = RenderSilhouette(mesh, rough, raw.truth.camera, raw.truth.cam_from_world[i]);
+    const Image cut = GrabCutMask(ReadImage(raw.bracket0[raw.num_calibration + i]), prior, 25);
+    iou_prior += MaskIoU(prior, truth) / n;
+    const double iou = MaskIoU(cut, truth);
+    iou_cut += iou / n;
+    worst = std::min(worst, iou);
+  }
+  std::printf("GrabCut: mean IoU with the true masks %.4f (rough mesh projection %.4f), worst view %.4f\n", iou_cut,
+              iou_prior, worst);
+  EXPECT_GT(iou_cut, iou_prior);
+  EXPECT_GT(iou_cut, 0.92);
 }
 
 }  // namespace

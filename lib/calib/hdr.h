@@ -6,7 +6,7 @@
 // the exposure, so longer exposures, with less relative noise, count more);
 // a pixel saturated in every shot is flagged. Non-linear 8-bit input (JPEG):
 // the camera response is recovered first with OpenCV's Debevec-Malik method
-// and the shots merged with OpenCV's MergeDebevec.
+// and the shots merged with OpenCV's Robertson weighting (MergeRobertson).
 #pragma once
 #include <vector>
 

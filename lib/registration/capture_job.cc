@@ -1,5 +1,6 @@
 #include "registration/capture_job.h"
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <unistd.h>
@@ -17,6 +18,7 @@
 #include "io/output_folder.h"
 #include "io/scene.h"
 #include "registration/board_bundle.h"
+#include "registration/colmap_sfm.h"
 #include "registration/silhouette.h"
 
 namespace svbrdf {
@@ -197,6 +199,49 @@ nlohmann::json RunCapture(const CaptureJob& job) {
                       {"calibrated_here", calibrate}, {"calibration_rms_px", cal.rms}};
   report["bundle"] = {{"rms_px_before", ba.initial_rms_px}, {"rms_px", ba.rms_px}, {"views", views_j}};
   timer.Stop();
+
+  // 2b. Optional: structure from motion with COLMAP (camera fixed), placed in
+  // the board frame by the photos that show the board; poses the photos that
+  // do not.
+  const std::string pose_mode = desc.value("poses", std::string("board"));
+  if (pose_mode == "colmap") {
+    timer.Start("colmap");
+    std::string ws = (fs::temp_directory_path() / "svbrdf_colmap_XXXXXX").string();
+    if (!mkdtemp(ws.data())) throw Error("capture: cannot create a temporary COLMAP workspace");
+    const std::vector<std::string> photo_paths(detect_paths.begin() + first_photo, detect_paths.end());
+    ColmapSfmOptions co_sfm;
+    if (desc.contains("colmap_executable")) co_sfm.colmap = Field<std::string>(desc, "colmap_executable", ctx);
+    const ColmapModel model = RunColmapSfm(photo_paths, camera, ws, co_sfm);  // throws naming the log (kept)
+    std::map<std::string, Rigid3> known;
+    for (size_t i = 0; i < photos.size(); ++i)
+      if (photos[i].posed) known[ColmapImageName(photo_paths[i])] = photos[i].cam_from_world;
+    const ColmapToBoard align = AlignColmapToBoard(model, known);
+    // Agreement of the two pose sources where both exist.
+    double worst_deg = 0, worst_mm = 0;
+    for (const ColmapImage& im : model.images) {
+      const auto it = known.find(im.name);
+      if (it == known.end()) continue;
+      const Rigid3 p = align.CamFromBoard(im.cam_from_world);
+      worst_deg = std::max(worst_deg, Eigen::AngleAxisd(p.rotation * it->second.rotation.conjugate()).angle() * 180 / kPi);
+      worst_mm = std::max(worst_mm, 1e3 * (p.CentreInWorld() - it->second.CentreInWorld()).norm());
+    }
+    int newly_posed = 0;
+    for (const ColmapImage& im : model.images)
+      for (size_t i = 0; i < photos.size(); ++i)
+        if (!photos[i].posed && ColmapImageName(photo_paths[i]) == im.name) {
+          photos[i].posed = true;
+          photos[i].cam_from_world = align.CamFromBoard(im.cam_from_world);
+          ++newly_posed;
+        }
+    report["colmap"] = {{"registered_images", model.images.size()}, {"points", model.points.size()},
+                        {"placed_by_board_photos", align.matched}, {"scale", align.scale},
+                        {"centre_rms_mm", 1e3 * align.centre_rms_m}, {"photos_posed_only_by_colmap", newly_posed},
+                        {"vs_board_worst_deg", worst_deg}, {"vs_board_worst_mm", worst_mm}};
+    fs::remove_all(ws);
+    timer.Stop();
+  } else if (pose_mode != "board") {
+    throw Error(Msg(ctx, ": poses: expected \"board\" or \"colmap\", got \"", pose_mode, "\""));
+  }
   std::vector<size_t> posed;
   for (size_t i = 0; i < photos.size(); ++i)
     if (photos[i].posed) posed.push_back(i);
@@ -216,7 +261,11 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       if (photos[i].mask.empty()) throw Error(Msg(ctx, ": photos[", i, "]: masks are \"given\" but the photo has no mask"));
       v.mask = ReadImage(path(photos[i].mask));
     } else if (mask_mode == "grabcut") {
-      v.mask = GrabCutMask(photos[i].hdr.radiance, RenderSilhouette(mesh, rough, camera, photos[i].cam_from_world));
+      // The undecided band must cover the rough placement's error (cm: tens
+      // of pixels); 4 % of the image diagonal.
+      const int margin = std::max(6, int(0.04 * std::hypot(camera.width, camera.height)));
+      v.mask = GrabCutMask(photos[i].hdr.radiance, RenderSilhouette(mesh, rough, camera, photos[i].cam_from_world),
+                           margin);
     } else {
       throw Error(Msg(ctx, ": masks: expected \"given\" or \"grabcut\", got \"", mask_mode, "\""));
     }
