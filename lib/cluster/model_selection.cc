@@ -20,6 +20,14 @@ namespace {
 // from its training samples instead.
 constexpr size_t kMinValidationSamples = 300;
 
+// Screening fits: least squares on this many random training samples of the
+// cluster, at most this many iterations per start. Models of <= 24
+// parameters are determined well by 600 samples (1800 residuals); the ranking they give
+// agrees with full fits except for near-ties, which the finalists settle.
+constexpr int64_t kScreenSamples = 600;
+constexpr int kScreenIterations = 12;
+constexpr size_t kFinalists = 3;
+
 }  // namespace
 
 void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, std::vector<int64_t>* hold) {
@@ -42,6 +50,23 @@ void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, s
   *train = std::move(keep);
 }
 
+FitOptions ScreeningFitOptions(const ReconstructOptions& o, const std::string& context) {
+  FitOptions fo = o.fit;
+  fo.max_samples = std::min<int64_t>(fo.max_samples, kScreenSamples);
+  fo.max_iterations = std::min(fo.max_iterations, kScreenIterations);
+  fo.function_tolerance = std::max(fo.function_tolerance, 1e-5);
+  fo.robust_scale = 0;
+  fo.threads = 1;
+  fo.context = context;
+  return fo;
+}
+
+void ValidationSamples(const Clustering& cl, int k, std::vector<int64_t>* train, std::vector<int64_t>* hold) {
+  *hold = cl.Ids(k, true);
+  *train = cl.Ids(k, false);
+  if (hold->size() < kMinValidationSamples) ValidationFromTraining(cl, train, hold);
+}
+
 namespace {
 
 struct Tried {
@@ -52,13 +77,6 @@ struct Tried {
   bool final = false;          // fully fitted (a finalist), not only screened
 };
 
-// Screening fits: least squares on this many random training samples of the
-// cluster, at most this many iterations per start. Models of <= 24
-// parameters are determined well by 600 samples (1800 residuals); the ranking they give
-// agrees with full fits except for near-ties, which the finalists settle.
-constexpr int64_t kScreenSamples = 600;
-constexpr int kScreenIterations = 12;
-constexpr size_t kFinalists = 3;
 
 double SignalRms(const SampleSet& samples, const std::vector<int64_t>& hold) {
   double signal = 0;
@@ -85,12 +103,6 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
 
 }  // namespace
 
-void ValidationSamples(const Clustering& cl, int k, std::vector<int64_t>* train, std::vector<int64_t>* hold) {
-  *hold = cl.Ids(k, true);
-  *train = cl.Ids(k, false);
-  if (hold->size() < kMinValidationSamples) ValidationFromTraining(cl, train, hold);
-}
-
 void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
@@ -109,13 +121,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
     std::vector<Tried> tried(candidates.size());
     ParallelFor(long(candidates.size()), o.threads, [&](long j) {
       const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
-      FitOptions fo = o.fit;
-      fo.max_samples = std::min<int64_t>(fo.max_samples, kScreenSamples);
-      fo.max_iterations = std::min(fo.max_iterations, kScreenIterations);
-      fo.function_tolerance = std::max(fo.function_tolerance, 1e-5);
-      fo.robust_scale = 0;
-      fo.threads = 1;
-      fo.context = Msg("reconstruct: cluster ", k, " (model screening)");
+      const FitOptions fo = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model screening)"));
       const FitResult r = FitModel(spec, samples, train, fo,
                                    spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
       std::vector<double> e = SampleErrors(spec, r.params, samples, hold);

@@ -3,6 +3,7 @@
 // for fewer parameters.
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "cluster/clustering.h"
@@ -17,6 +18,9 @@ namespace svbrdf {
 // seeded order, about a quarter of the cluster's samples) are moved to
 // validation instead.
 void ValidationSamples(const Clustering& cl, int k, std::vector<int64_t>* train, std::vector<int64_t>* hold);
+// Options of a screening fit (a quick least-squares fit on a small random
+// subset, one thread): ranks models by held-out error within a few percent.
+FitOptions ScreeningFitOptions(const ReconstructOptions& o, const std::string& context);
 // The fallback above: moves whole training photos from `train` to `hold`.
 void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, std::vector<int64_t>* hold);
 

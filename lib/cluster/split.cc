@@ -7,6 +7,7 @@
 #include "cluster/model_selection.h"
 #include "cluster/nnls.h"
 #include "cluster/stats.h"
+#include "core/error.h"
 #include "core/parallel.h"
 
 namespace svbrdf {
@@ -141,11 +142,12 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
   std::vector<int64_t> train, hold;
   ValidationSamples(cl, k, &train, &hold);
   if (train.empty()) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
-  // Independent small fits: one per thread (as in model selection).
+  // Independent quick fits (screening, as in model selection), one per thread.
   std::vector<FitResult> fits(specs.size());
   std::vector<double> mse(specs.size(), 0.0);
   ParallelFor(long(specs.size()), o.threads, [&](long j) {
-    fits[j] = cl.FitIds(specs[j], train, start(specs[j]), o.selection_samples, 1, k);
+    fits[j] = FitModel(specs[j], cl.samples(), train,
+                       ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (split model)")), start(specs[j]));
     if (hold.empty()) {
       mse[j] = fits[j].cost;
       return;
@@ -157,10 +159,9 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
     mse[j] = sum / (3.0 * hold.size());
   });
   const size_t best = size_t(std::min_element(mse.begin(), mse.end()) - mse.begin());
-  // A split's halves are refitted on all their samples by the refinement
-  // that follows; the first cluster is not.
-  if (parent) return MakeBasis(specs[best], fits[best], k);
-  return MakeBasis(specs[best], cl.Fit(specs[best], k, fits[best].params), k);
+  // The chosen model fitted fully (robust, all training samples), from its
+  // screening fit: the split test scores the halves before refinement.
+  return MakeBasis(specs[best], cl.Fit(specs[best], k, fits[best].params, 0, -1, parent == nullptr), k);
 }
 
 }  // namespace svbrdf

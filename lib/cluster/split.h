@@ -36,12 +36,11 @@ std::vector<int> GeometrySplitSides(const Clustering& cl, int k);
 std::vector<ModelSpec> SplitModels(const ReconstructOptions& o);
 
 // The split-stage basis material of cluster k: every SplitModels() model
-// fitted to the cluster's training samples (`selection_samples` of them),
+// fitted to the cluster's training samples (a screening fit, as in model
+// selection: least squares on a small random subset),
 // the one with the lowest mean squared error on its validation samples
-// (ValidationSamples). `parent` (may be null): warm start for the fit of its
-// own model; without a parent (the first cluster) the chosen model is
-// refitted on all training samples, with one (a split's half) the refinement
-// after the split does that. The choice depends on the
+// (ValidationSamples), then fitted fully from there. `parent` (may be null):
+// warm start for the fit of its own model. The choice depends on the
 // data alone, not on one model: a metal half gets a conductor, a glossy
 // dielectric half a coat, whatever the parent was.
 BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent);
