@@ -12,6 +12,8 @@ void ReconstructOptions::Check() const {
   if (force_clusters < 0 || force_clusters > 16) throw Error(Msg("reconstruct: --clusters must be in [0, 16], got ", force_clusters));
   if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) throw Error("reconstruct: holdout fraction must be in (0, 0.9)");
   if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
+  if (!(control_min_share >= 0 && control_min_share <= 1))
+    throw Error("reconstruct: control min share must be in [0, 1]");
   if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");
   if (!(parsimony >= 0)) throw Error("reconstruct: parsimony must be >= 0");
   if (mix_radius < 1 || mix_radius > 8) throw Error(Msg("reconstruct: mix radius must be in [1, 8], got ", mix_radius));

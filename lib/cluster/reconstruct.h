@@ -80,10 +80,15 @@ struct ReconstructOptions {
   double holdout_fraction = 0.2;
   double min_improvement = 0.02; // a split must lower the held-out squared error by this (relative)
   double min_z = 3.0;            // ... and by this many standard errors (paired over texels)
-  // A split must also beat, by min_improvement and min_z, the control split of
-  // the same cluster along a non-material direction (honest stopping when
-  // model error dominates the residuals; see split.h GeometrySplitSides).
+  // A split must also beat, by min_z and by min_improvement (or by
+  // control_min_share of its own drop, whichever is smaller), the control
+  // split of the same cluster along a non-material direction (honest stopping
+  // when model error dominates the residuals; see split.h GeometrySplitSides).
+  // The share lets a small material (a split that lowers the error by a few
+  // percent) pass when most of its gain is material, while splits of model
+  // error (large drop, control nearly as good) still fail.
   bool control_split = true;
+  double control_min_share = 1.0 / 3.0;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels

@@ -142,7 +142,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       for (size_t t = 0; t < control_sse.size(); ++t) sc += candidate_sse[t], sn += control_sse[t];
       const double gain = 1.0 - sc / std::max(1e-300, sn);
       const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
-      passes = gain >= o.min_improvement && zc >= o.min_z;
+      passes = gain >= std::min(o.min_improvement, o.control_min_share * drop) && zc >= o.min_z;
       control_note = Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc, passes ? "" : ": model error, not materials");
     }
     est.history.push_back({cl.K(), cl.TrainRmse(), h, false, key});
