@@ -19,8 +19,11 @@ int main(int argc, char** argv) {
       "  svbrdf relight material capture/heldout/scene.json --out relit\n"
       "  svbrdf evaluate relit capture/heldout/scene.json"};
   app.require_subcommand(1);
-  // Ceres logs through glog; keep its informational lines off the terminal.
+  // Ceres logs through glog; keep its informational lines off the terminal,
+  // and its errors on stderr only (glog's default also writes log files into
+  // /tmp, which nobody asked for).
   FLAGS_minloglevel = 2;
+  FLAGS_logtostderr = true;
   google::InitGoogleLogging(argv[0]);
   svbrdf::cli::Runner run;
   svbrdf::cli::RegisterSynth(app, &run);
