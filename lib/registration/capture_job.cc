@@ -20,6 +20,7 @@
 #include "io/scene.h"
 #include "registration/board_bundle.h"
 #include "registration/colmap_sfm.h"
+#include "registration/lamp_position.h"
 #include "registration/silhouette.h"
 
 namespace svbrdf {
@@ -330,19 +331,25 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     if (kind != "point")
       throw Error(Msg(ctx, ": light ", light.id, ": type must be \"point\" (calibrated by mirror balls) or \"flash\""));
     std::vector<Ray3> rays;
+    std::vector<HighlightObservation> highlights;
     for (size_t i : posed) {
       if (photos[i].light != light.id) continue;
-      for (const MirrorSphere& s : spheres) {
+      for (size_t s = 0; s < spheres.size(); ++s) {
         Vec2 px;
         Ray3 ray;
-        if (FindHighlight(photos[i].hdr.radiance, camera, photos[i].cam_from_world, s, &px) &&
-            ReflectedRay(camera, photos[i].cam_from_world, s, px, &ray))
+        if (FindHighlight(photos[i].hdr.radiance, camera, photos[i].cam_from_world, spheres[s], &px) &&
+            ReflectedRay(camera, photos[i].cam_from_world, spheres[s], px, &ray)) {
           rays.push_back(ray);
+          highlights.push_back({&camera, photos[i].cam_from_world, int(s), px});
+        }
       }
     }
     if (rays.size() < 2) throw Error(Msg("capture: light ", light.id, ": only ", rays.size(), " mirror-sphere highlights found; need 2"));
+    // Rays intersected in 3-D for a start, then refined in the images.
     double ray_rms = 0;
-    light.position = NearestPointToRays(rays, &ray_rms);
+    const Vec3 from_rays = NearestPointToRays(rays, &ray_rms);
+    const LampRefineResult refined = RefineLampPosition(highlights, spheres, from_rays, LampRefineOptions{});
+    light.position = refined.position;
     // Intensity: board points on white paper (texture value 1 around them), in photos of this light.
     std::vector<DiffuseSample> samples;
     const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
@@ -380,7 +387,9 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     light.intensity = Rgb::Constant(I);
     lights.push_back(light);
     lights_report.push_back({{"id", light.id}, {"position", {light.position.x(), light.position.y(), light.position.z()}},
-                             {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms}, {"intensity", I},
+                             {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms},
+                             {"position_from_rays", {from_rays.x(), from_rays.y(), from_rays.z()}},
+                             {"highlight_rms_px", {refined.initial_rms_px, refined.rms_px}}, {"intensity", I},
                              {"reference_samples", samples.size()}});
   }
   (void)black;
