@@ -301,6 +301,38 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     }
   }
   const BoardTexture tex = DrawBoard(board, 32);
+  // The diffuse reference of known albedo: board points on white paper
+  // (texture value 1 all round them) seen in posed photo k, not hidden by the
+  // object, away from the mirror balls, not clipped.
+  const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
+  auto white_samples = [&](size_t k, std::vector<DiffuseSample>* samples) {
+    const size_t i = posed[k];
+    const Image& img = photos[i].hdr.radiance;
+    for (int ty = 2; ty < tex.image.height - 2; ty += 3)
+      for (int tx = 2; tx < tex.image.width - 2; tx += 3) {
+        bool all_white = true;
+        for (int dy = -2; dy <= 2 && all_white; ++dy)
+          for (int dx = -2; dx <= 2; ++dx) all_white &= tex.image.at(tx + dx, ty + dy, 0) > 0.99f;
+        if (!all_white) continue;
+        const Vec2 b = lin_inv * (Vec2(tx + 0.5, ty + 0.5) - tex.texture_from_board.col(2));
+        const Vec3 X(b.x(), b.y(), 0.0);
+        const Vec3 xc = photos[i].cam_from_world * X;
+        if (xc.z() <= 0) continue;
+        const Vec2 px = camera.Project(xc);
+        const int x = int(px.x()), y = int(px.y());
+        if (x < 1 || y < 1 || x >= img.width - 1 || y >= img.height - 1) continue;
+        if (reg.iou_after.size() && sviews[k].mask.at(x, y, 0) > 0.5f) continue;  // the object hides it
+        bool near_sphere = false;
+        for (const MirrorSphere& s : spheres) near_sphere |= (X - s.centre).norm() < 1.5 * s.radius;
+        if (near_sphere || photos[i].hdr.saturated.at(x, y, 0) > 0) continue;
+        // Normal of the board towards the camera side.
+        const Vec3 eye = photos[i].cam_from_world.CentreInWorld();
+        const Vec3 n = eye.z() > 0 ? Vec3(0, 0, 1) : Vec3(0, 0, -1);
+        double v = 0;
+        for (int c = 0; c < 3; ++c) v += img.at(x, y, c) / 3;
+        samples->push_back({v, 1.0, white, X, n});
+      }
+  };
   std::vector<Light> lights;
   nlohmann::json lights_report = nlohmann::json::array();
   std::map<size_t, int> flash_of_photo;  // photo -> its flash light id
@@ -313,9 +345,28 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       // given offset in the camera frame (metres, x right, y down, z forward).
       const auto off = Field<std::vector<double>>(lj, "offset", Msg(ctx, ": light ", light.id));
       if (off.size() != 3) throw Error(Msg(ctx, ": light ", light.id, ": offset must be [x, y, z] metres"));
-      const double intensity = lj.contains("intensity") ? Field<double>(lj, "intensity", ctx + ": lights[]") : 1.0;
-      for (size_t i : posed) {
-        if (photos[i].light != light.id) continue;
+      // Intensity: given, or from the white paper of every photo it lit
+      // (one flash, the same output in every photo: the median over all).
+      double intensity = lj.contains("intensity") ? Field<double>(lj, "intensity", ctx + ": lights[]") : 0.0;
+      std::vector<size_t> lit;
+      for (size_t k = 0; k < posed.size(); ++k)
+        if (photos[posed[k]].light == light.id) lit.push_back(k);
+      size_t reference_samples = 0;
+      if (!lj.contains("intensity")) {
+        std::vector<double> estimates;
+        for (size_t k : lit) {
+          std::vector<DiffuseSample> samples;
+          white_samples(k, &samples);
+          const Vec3 at = photos[posed[k]].cam_from_world.Inverse() * Vec3(off[0], off[1], off[2]);
+          AppendIntensityEstimates(samples, at, &estimates);
+        }
+        if (estimates.empty())
+          throw Error(Msg(ctx, ": light ", light.id, ": no white board paper seen to measure the flash; give \"intensity\""));
+        reference_samples = estimates.size();
+        intensity = MedianIntensity(estimates);
+      }
+      for (size_t k : lit) {
+        const size_t i = posed[k];
         Light f;
         f.id = 1000000 + int(i);  // ids of per-photo flashes; the photo is renumbered to it below
         f.type = LightType::kPoint;
@@ -324,7 +375,8 @@ nlohmann::json RunCapture(const CaptureJob& job) {
         flash_of_photo[i] = f.id;
         lights.push_back(f);
         lights_report.push_back({{"id", f.id}, {"flash_of_photo", i},
-                                 {"position", {f.position.x(), f.position.y(), f.position.z()}}, {"intensity", intensity}});
+                                 {"position", {f.position.x(), f.position.y(), f.position.z()}}, {"intensity", intensity},
+                                 {"intensity_measured", !lj.contains("intensity")}, {"reference_samples", reference_samples}});
       }
       continue;
     }
@@ -350,38 +402,10 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     const Vec3 from_rays = NearestPointToRays(rays, &ray_rms);
     const LampRefineResult refined = RefineLampPosition(highlights, spheres, from_rays, LampRefineOptions{});
     light.position = refined.position;
-    // Intensity: board points on white paper (texture value 1 around them), in photos of this light.
+    // Intensity from the board's white paper in the photos of this light.
     std::vector<DiffuseSample> samples;
-    const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
-    for (size_t k = 0; k < posed.size(); ++k) {
-      const size_t i = posed[k];
-      if (photos[i].light != light.id) continue;
-      const Image& img = photos[i].hdr.radiance;
-      for (int ty = 2; ty < tex.image.height - 2; ty += 3)
-        for (int tx = 2; tx < tex.image.width - 2; tx += 3) {
-          bool all_white = true;
-          for (int dy = -2; dy <= 2 && all_white; ++dy)
-            for (int dx = -2; dx <= 2; ++dx) all_white &= tex.image.at(tx + dx, ty + dy, 0) > 0.99f;
-          if (!all_white) continue;
-          const Vec2 b = lin_inv * (Vec2(tx + 0.5, ty + 0.5) - tex.texture_from_board.col(2));
-          const Vec3 X(b.x(), b.y(), 0.0);
-          const Vec3 xc = photos[i].cam_from_world * X;
-          if (xc.z() <= 0) continue;
-          const Vec2 px = camera.Project(xc);
-          const int x = int(px.x()), y = int(px.y());
-          if (x < 1 || y < 1 || x >= img.width - 1 || y >= img.height - 1) continue;
-          if (reg.iou_after.size() && sviews[k].mask.at(x, y, 0) > 0.5f) continue;  // the object hides it
-          bool near_sphere = false;
-          for (const MirrorSphere& s : spheres) near_sphere |= (X - s.centre).norm() < 1.5 * s.radius;
-          if (near_sphere || photos[i].hdr.saturated.at(x, y, 0) > 0) continue;
-          // Normal of the board towards the camera side.
-          const Vec3 eye = photos[i].cam_from_world.CentreInWorld();
-          const Vec3 n = eye.z() > 0 ? Vec3(0, 0, 1) : Vec3(0, 0, -1);
-          double v = 0;
-          for (int c = 0; c < 3; ++c) v += img.at(x, y, c) / 3;
-          samples.push_back({v, 1.0, white, X, n});
-        }
-    }
+    for (size_t k = 0; k < posed.size(); ++k)
+      if (photos[posed[k]].light == light.id) white_samples(k, &samples);
     const double I = IntensityFromDiffuse(samples, light.position);
     light.type = LightType::kPoint;
     light.intensity = Rgb::Constant(I);
