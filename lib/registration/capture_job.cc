@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <unistd.h>
 
 #include "calib/board.h"
@@ -43,6 +44,28 @@ T Field(const nlohmann::json& j, const char* key, const std::string& context) {
   } catch (const std::exception& e) {
     throw Error(Msg(context, ": field '", key, "': ", e.what()));
   }
+}
+
+KnownDistance KnownDistanceFromJson(const nlohmann::json& j, const std::string& context) {
+  KnownDistance k;
+  k.metres = Field<double>(j, "metres", context);
+  if (j.contains("images")) {
+    const auto names = Field<std::vector<std::string>>(j, "images", context);
+    if (names.size() != 2) throw Error(Msg(context, ": images: expected two photo files"));
+    k.image_a = ColmapImageName(names[0]), k.image_b = ColmapImageName(names[1]);
+  } else if (j.contains("point_ids")) {
+    const auto ids = Field<std::vector<long>>(j, "point_ids", context);
+    if (ids.size() != 2) throw Error(Msg(context, ": point_ids: expected two ids of points3D.txt"));
+    k.point_a = ids[0], k.point_b = ids[1];
+  } else {
+    for (const auto& p : Field<std::vector<std::vector<double>>>(j, "points", context)) {
+      if (p.size() != 3) throw Error(Msg(context, ": points: expected [[x, y, z], [x, y, z]]"));
+      k.points.push_back(Vec3(p[0], p[1], p[2]));
+    }
+    if (k.points.size() != 2) throw Error(Msg(context, ": points: expected two points"));
+  }
+  if (!(k.metres > 0)) throw Error(Msg(context, ": metres must be > 0"));
+  return k;
 }
 
 Rigid3 PoseFromJson(const nlohmann::json& j, const std::string& context) {
@@ -221,7 +244,18 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     std::map<std::string, Rigid3> known;
     for (size_t i = 0; i < photos.size(); ++i)
       if (photos[i].posed) known[ColmapImageName(photo_paths[i])] = photos[i].cam_from_world;
-    const ColmapToBoard align = AlignColmapToBoard(model, known);
+    // Placed by the photos that show the board (3 or more); else scaled by
+    // a known distance (orientation and origin then stay COLMAP's, and every
+    // photo takes its COLMAP pose); with both, the known distance is a check.
+    std::optional<ColmapToBoard> by_distance;
+    if (desc.contains("known_distance"))
+      by_distance = ScaleColmapByKnownDistance(model, KnownDistanceFromJson(desc["known_distance"], ctx + ": known_distance"));
+    const bool by_board = known.size() >= 3 || !by_distance;
+    const ColmapToBoard align = by_board ? AlignColmapToBoard(model, known) : *by_distance;
+    if (!by_board) {  // board poses (fewer than 3) are in another frame
+      for (Photo& p : photos) p.posed = false;
+      known.clear();
+    }
     // Agreement of the two pose sources where both exist.
     double worst_deg = 0, worst_mm = 0;
     for (const ColmapImage& im : model.images) {
@@ -242,7 +276,9 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     report["colmap"] = {{"registered_images", model.images.size()}, {"points", model.points.size()},
                         {"placed_by_board_photos", align.matched}, {"scale", align.scale},
                         {"centre_rms_mm", 1e3 * align.centre_rms_m}, {"photos_posed_only_by_colmap", newly_posed},
-                        {"vs_board_worst_deg", worst_deg}, {"vs_board_worst_mm", worst_mm}};
+                        {"vs_board_worst_deg", worst_deg}, {"vs_board_worst_mm", worst_mm},
+                        {"placed_by", by_board ? "board" : "known_distance"}};
+    if (by_distance) report["colmap"]["known_distance_scale"] = by_distance->scale;
     fs::remove_all(ws);
     timer.Stop();
   } else if (pose_mode != "board") {
