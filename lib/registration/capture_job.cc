@@ -122,8 +122,16 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   const BoardSpec board = BoardFromJson(board_j, ctx + ": board");
   const double white = Field<double>(board_j, "white_albedo", ctx + ": board");
   const double black = Field<double>(board_j, "black_albedo", ctx + ": board");
-  if (Field<std::string>(desc, "images_color_space", ctx) != "linear")
-    throw Error(Msg(ctx, ": images_color_space: only \"linear\" brackets are supported by capture (develop RAW linearly)"));
+  // "linear": 16-bit linear PNG/TIFF or EXR brackets. "srgb" / "nonlinear":
+  // 8-bit brackets through an unknown camera response (JPEG), recovered
+  // from the brackets themselves; the merged radiance is then known up to
+  // one scale, which the lamp and flash intensities (measured on the board's
+  // known albedo) absorb.
+  const std::string color_space = Field<std::string>(desc, "images_color_space", ctx);
+  if (color_space != "linear" && color_space != "srgb" && color_space != "nonlinear")
+    throw Error(Msg(ctx, ": images_color_space: \"", color_space,
+                    "\" unknown; expected \"linear\" (16-bit/EXR) or \"srgb\"/\"nonlinear\" (8-bit brackets)"));
+  const bool recover_response = color_space != "linear";
 
   std::vector<Photo> photos;
   const auto photos_j = Field<nlohmann::json>(desc, "photos", ctx);
@@ -145,14 +153,35 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   }
   nlohmann::json report = {{"description", desc_path}};
 
-  // 1. HDR: merge brackets (linear), saturation where every bracket clips.
+  // 1. HDR: merge brackets, saturation where every bracket clips. 8-bit
+  // brackets: one response for the camera, recovered from the photo with
+  // the most brackets.
   timer.Start("hdr");
+  CameraResponse response;
+  const ResponseOptions response_options;
+  if (recover_response) {
+    size_t richest = 0;
+    for (size_t i = 0; i < photos.size(); ++i)
+      if (photos[i].files.size() > photos[richest].files.size()) richest = i;
+    if (photos[richest].files.size() < 2)
+      throw Error(Msg(ctx, ": images_color_space \"", color_space,
+                      "\" needs at least one photo with 2 or more exposure brackets to recover the camera response"));
+    std::vector<Image> shots;
+    for (const auto& f : photos[richest].files) shots.push_back(ReadImage(path(f)));
+    response = RecoverResponse(shots, photos[richest].exposures, response_options);
+    report["hdr"] = {{"response", "recovered: Debevec-Malik, then a polynomial of degree " +
+                                      std::to_string(response_options.polynomial_degree)},
+                     {"from_photo", richest}};
+  } else {
+    report["hdr"] = {{"response", "linear"}};
+  }
   {
     Progress progress("merge brackets", long(photos.size()), job.progress);
     ParallelFor(long(photos.size()), job.threads, [&](long i) {
       std::vector<Image> shots;
       for (const auto& f : photos[i].files) shots.push_back(ReadImage(path(f)));
-      photos[i].hdr = MergeLinear(shots, photos[i].exposures, HdrOptions{});
+      photos[i].hdr = recover_response ? MergeWithResponse(shots, photos[i].exposures, response, response_options)
+                                       : MergeLinear(shots, photos[i].exposures, HdrOptions{});
       progress.Tick();
     });
   }

@@ -12,7 +12,8 @@
 //   board: {pattern, cols, rows, square, marker, dictionary, white_albedo, black_albedo}
 //   camera: {"calibrate": true, "model": "OPENCV"} or {"cameras_txt": "calib/cameras.txt"}
 //   calibration_photos: [files]  board-only photos for the intrinsics (optional)
-//   images_color_space: "linear" (16-bit linear / EXR brackets)
+//   images_color_space: "linear" (16-bit linear / EXR brackets) or "srgb" / "nonlinear"
+//         (8-bit brackets; the camera response is recovered from them)
 //   mesh: {file, world_from_mesh: {q, t}}  the scanned mesh and its rough
 //         placement in the board frame (world = board frame, metres)
 //   masks: "given" (each photo's "mask") or "grabcut" (seeded by the projected mesh)
