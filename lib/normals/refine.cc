@@ -35,6 +35,7 @@ void NormalOptions::Check() const {
   if (!(robust_sigmas >= 0)) fail("robust_sigmas", robust_sigmas, ">= 0");
   if (!(max_tilt_deg > 0 && max_tilt_deg <= 85)) fail("max_tilt_deg", max_tilt_deg, "in (0, 85]");
   if (iterations < 1) fail("iterations", iterations, ">= 1");
+  if (material_rounds < 0) fail("--material-rounds", material_rounds, ">= 0");
   if (max_iterations < 1) fail("max_iterations", max_iterations, ">= 1");
   if (decision_texels < 100) fail("decision_texels", decision_texels, ">= 100");
   if (!(min_improvement >= 0 && min_improvement < 1)) fail("min_improvement", min_improvement, "in [0, 1)");

@@ -60,6 +60,14 @@ struct NormalOptions {
   // Off by default: it doubles the reconstruction time, and on the standard
   // and mixed captures the second clustering was never the better one.
   bool recluster = false;
+  // When kept: the basis materials' models chosen and fitted again on the
+  // samples re-expressed in the refined normals' frames (the clustering's
+  // partition kept), then the normals refined again from the refined ones;
+  // repeated up to this many times while the held-out error drops (pipeline).
+  // Under a bump map the materials fitted with the mesh normals are biased
+  // (a metal's shifted highlights read as a broader, dimmer lobe), and the
+  // normals fitted with biased materials stay short of the true tilt.
+  int material_rounds = 1;
   int max_iterations = 10;      // Levenberg-Marquardt iterations per texel (2 unknowns: converges in a few)
   long decision_texels = 4000;  // texels used for the held-out decision (a seeded subset), >= 100
   double min_improvement = 0.01;  // relative held-out squared-error drop needed to keep the normals
