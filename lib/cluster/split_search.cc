@@ -105,11 +105,12 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const State parent{cl.basis(), cl.assign(), 0.0, {}};
     SplitCluster(cl, k, side);
     // The control: the same cluster halved along a direction that says
-    // nothing about the material (GeometrySplitSides), scored before
-    // refinement as the candidate is here.
-    std::vector<double> candidate_sse, control_sse;
+    // nothing about the material (GeometrySplitSides), refined as the
+    // candidate is. (Scored before refinement, a split one step past the
+    // best (lookahead), whose gain appears only when the refinement
+    // reassigns the texels of a mixed parent, lost to its control.)
+    std::vector<double> control_sse;
     const bool honest_test = o.force_clusters == 0 && o.control_split;
-    if (honest_test) cl.HeldoutRmse(false, &candidate_sse);
     Refine(cl, o.refine_iterations);
     const uint64_t key = PartitionKey(cl.assign());
     if (!evaluated.insert(key).second) {
@@ -136,8 +137,10 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
       restore(parent);
       SplitCluster(cl, k, GeometrySplitSides(cl, k));
+      Refine(cl, o.refine_iterations);
       cl.HeldoutRmse(false, &control_sse);
       restore(candidate);
+      const std::vector<double>& candidate_sse = texel_sse;
       double sc = 0, sn = 0;
       for (size_t t = 0; t < control_sse.size(); ++t) sc += candidate_sse[t], sn += control_sse[t];
       const double gain = 1.0 - sc / std::max(1e-300, sn);

@@ -41,10 +41,16 @@ NormalErrors CompareNormals(const Atlas& atlas, const std::vector<Vec3>& normals
   if (out.degrees.empty()) return out;
   MeanMedian(out.degrees, &out.mean_deg, &out.median_deg);
   const Image& id = truth.material_id;
-  if (id.width != atlas.width || id.height != atlas.height || id.channels < 1) return out;
+  if (id.width == 0 || id.channels < 1) return out;
   std::vector<std::vector<double>> by;
   for (size_t t = 0; t < out.degrees.size(); ++t) {
-    const double v = id.at(atlas.texels[t].x, atlas.texels[t].y, 0);
+    // The truth's id at the texel centre's uv (nearest: ids do not blend).
+    const Texel& tx = atlas.texels[t];
+    const Vec2 uv((tx.x + 0.5) / atlas.width, 1.0 - (tx.y + 0.5) / atlas.height);
+    const Vec2 p = UvToTexel(uv, id.width, id.height);
+    const int x = std::clamp(int(std::floor(p.x())), 0, id.width - 1);
+    const int y = std::clamp(int(std::floor(p.y())), 0, id.height - 1);
+    const double v = id.at(x, y, 0);
     if (!(v >= 0 && v < 256)) continue;
     const size_t k = size_t(v);
     if (by.size() <= k) by.resize(k + 1);

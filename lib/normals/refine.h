@@ -54,6 +54,16 @@ struct NormalOptions {
   double prior_tilt = 0.35;     // tau: prior std of tan(tilt) per tangent axis (0.35 ~ 19 degrees), > 0
   double noise = -1.0;          // sigma of y per channel; < 0: estimated from the residuals
   double robust_sigmas = 3.0;   // Cauchy loss scale in sigmas; 0 = plain least squares
+  // Graduated robustness: pass p of `iterations` uses a Cauchy scale
+  // robust_growth^(iterations - 1 - p) times the final one. From mesh normals
+  // a glossy texel's highlights miss by many sigmas; a tight Cauchy loss from
+  // the start treats exactly the samples that locate the normal as outliers.
+  double robust_growth = 4.0;   // >= 1 (1 = the same scale in every pass)
+  // Shot noise: sample residuals weighted by 1 / (1 + y / y_med) (y the
+  // sample's mean over channels, y_med the median over all samples), the
+  // inverse variance of photon noise above a floor, so that sigma and the
+  // Cauchy scale hold for dark and bright samples alike.
+  bool shot_noise = true;
   double max_tilt_deg = 60.0;   // bound of the tilt per tangent axis, in (0, 85]
   int iterations = 3;           // normal + weights passes, >= 1
   // When kept: cluster again on reoriented samples, refine again (pipeline).
