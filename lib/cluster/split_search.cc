@@ -105,12 +105,17 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const State parent{cl.basis(), cl.assign(), 0.0, {}};
     SplitCluster(cl, k, side);
     // The control: the same cluster halved along a direction that says
-    // nothing about the material (GeometrySplitSides), refined as the
-    // candidate is. (Scored before refinement, a split one step past the
-    // best (lookahead), whose gain appears only when the refinement
-    // reassigns the texels of a mixed parent, lost to its control.)
-    std::vector<double> control_sse;
+    // nothing about the material (GeometrySplitSides), scored before
+    // refinement as the candidate is here. One split past the best
+    // (lookahead), both are scored after refinement: there the parent mixes
+    // materials, and the candidate's gain appears only when the refinement
+    // reassigns its texels (measured on the mixed preset at standard size:
+    // 83.7 % below the best, 1.9 % below the unrefined control, and the
+    // search fell back to 1 cluster at 19.7 dB held-out).
+    std::vector<double> candidate_sse, control_sse;
     const bool honest_test = o.force_clusters == 0 && o.control_split;
+    const bool refine_control = lookahead;
+    if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
     Refine(cl, o.refine_iterations);
     const uint64_t key = PartitionKey(cl.assign());
     if (!evaluated.insert(key).second) {
@@ -137,10 +142,12 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
       restore(parent);
       SplitCluster(cl, k, GeometrySplitSides(cl, k));
-      Refine(cl, o.refine_iterations);
+      if (refine_control) {
+        Refine(cl, o.refine_iterations);
+        candidate_sse = texel_sse;
+      }
       cl.HeldoutRmse(false, &control_sse);
       restore(candidate);
-      const std::vector<double>& candidate_sse = texel_sse;
       double sc = 0, sn = 0;
       for (size_t t = 0; t < control_sse.size(); ++t) sc += candidate_sse[t], sn += control_sse[t];
       const double gain = 1.0 - sc / std::max(1e-300, sn);
