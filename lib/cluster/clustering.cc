@@ -112,19 +112,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
   fo.multi_start = false;
   FitResult robust = FitModel(spec, s_, ids, fo, ls.params);
-  if (!robust.converged && ls.converged) return ls;
-  // The robust refit trusts the median residual: right when most samples
-  // fit and a few texels are misassigned, wrong when the model misses the
-  // cluster's highlights (a bumped metal: its shifted highlights are all
-  // "outliers" to a scale set by the dark samples), where it drops the very
-  // samples that carry the material. The cluster's held-out samples decide.
-  if (k >= 0) {
-    const std::vector<int64_t> hold = Ids(k, true);
-    if (hold.size() >= 30 && SumSquaredResidual(spec, ls.params, s_, hold) <
-                                 0.8 * SumSquaredResidual(spec, robust.params, s_, hold))
-      return ls;
-  }
-  return robust;
+  return robust.converged || !ls.converged ? robust : ls;
 }
 
 double Clustering::ScaledError(int t, int k, bool heldout) const {
