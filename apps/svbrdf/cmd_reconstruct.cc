@@ -42,6 +42,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--normal-prior", job->normals.prior_tilt, "prior std of tan(tilt) from the mesh normal (> 0)");
   c->add_flag("--recluster", job->normals.recluster,
               "when refined normals are kept: cluster again on the reoriented samples (about doubles the time)");
+  c->add_option("--material-rounds", job->normals.material_rounds,
+                "when refined normals are kept: refit the basis materials with them and refine again, up to this many times");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {

@@ -11,6 +11,10 @@
 
 namespace svbrdf {
 
+namespace {
+void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, const StageLog& log, SvbrdfEstimate* est);
+}  // namespace
+
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o) {
   o.Check();
   if (samples.size() == 0) throw Error("reconstruct: no samples");
@@ -42,6 +46,37 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // runs only when it fits: it costs about as much as the search so far
   // (measured: 0.7-1.3x), and the clustering model is a good fallback.
   const double search_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  FinishEstimate(cl, atlas, search_seconds, log, &est);
+  return est;
+}
+
+SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                           const SvbrdfEstimate& previous) {
+  o.Check();
+  if (samples.size() == 0) throw Error("reconstruct: no samples");
+  if (previous.basis.empty() || int(previous.label.size()) != samples.num_texels)
+    throw Error(Msg("reconstruct: refit needs an estimate of the same ", samples.num_texels, " texels"));
+  Clustering cl(samples, atlas, o);
+  SvbrdfEstimate est;
+  est.history = previous.history;
+  const StageLog log(o.progress);
+  cl.stage = "refit";
+  // The partition of `previous` (texels without a label join cluster 0;
+  // the refinement reassigns them), its materials as starting points.
+  for (int k = 0; k < int(previous.basis.size()); ++k) cl.SetBasis(k, previous.basis[k]);
+  for (int t = 0; t < samples.num_texels; ++t) cl.assign()[t] = std::max(0, previous.label[t]);
+  log(Msg("refit of ", cl.K(), " basis materials on the given samples"));
+  FinishEstimate(cl, atlas, 0.0, log, &est);
+  return est;
+}
+
+namespace {
+
+// Steps 3-6 of EstimateSvbrdf on a clustering state (shared with RefitSvbrdf).
+void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, const StageLog& log, SvbrdfEstimate* est_out) {
+  SvbrdfEstimate& est = *est_out;
+  const ReconstructOptions& o = cl.options();
+  const SampleSet& samples = cl.samples();
   cl.stage = "model selection";
   if (o.SecondsLeft() > search_seconds) {
     SelectModels(cl, &est, log);
@@ -76,7 +111,8 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   ConfidenceAndFill(samples, atlas, o, cl.K(), &est);
   for (int k = 0; k < cl.K(); ++k) cl.basis()[k].name = Msg("m", k);
   est.basis = cl.basis();
-  return est;
 }
+
+}  // namespace
 
 }  // namespace svbrdf

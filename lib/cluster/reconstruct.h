@@ -164,6 +164,14 @@ struct SvbrdfEstimate {
 
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options);
 
+// The partition of `previous` (its labels) kept, every basis material's model
+// chosen and fitted again on `samples` (step 3 on), then weights, quality and
+// confidence as in EstimateSvbrdf. For samples that changed but not their
+// materials' layout, e.g. re-expressed in refined normals' frames
+// (normals ↔ materials alternation), at a fraction of a new clustering's cost.
+SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options,
+                           const SvbrdfEstimate& previous);
+
 // Writes the estimate as a material folder (weights, confidence, material-id,
 // residual maps) for the given mesh (whose UVs the atlas uses).
 Material ToMaterial(const SvbrdfEstimate& est, const Atlas& atlas, const Mesh& mesh);

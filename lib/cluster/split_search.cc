@@ -106,10 +106,16 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     SplitCluster(cl, k, side);
     // The control: the same cluster halved along a direction that says
     // nothing about the material (GeometrySplitSides), scored before
-    // refinement as the candidate is here.
+    // refinement as the candidate is here. One split past the best
+    // (lookahead), both are scored after refinement: there the parent mixes
+    // materials, and the candidate's gain appears only when the refinement
+    // reassigns its texels (measured on the mixed preset at standard size:
+    // 83.7 % below the best, 1.9 % below the unrefined control, and the
+    // search fell back to 1 cluster at 19.7 dB held-out).
     std::vector<double> candidate_sse, control_sse;
     const bool honest_test = o.force_clusters == 0 && o.control_split;
-    if (honest_test) cl.HeldoutRmse(false, &candidate_sse);
+    const bool refine_control = lookahead;
+    if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
     Refine(cl, o.refine_iterations);
     const uint64_t key = PartitionKey(cl.assign());
     if (!evaluated.insert(key).second) {
@@ -136,6 +142,10 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
       restore(parent);
       SplitCluster(cl, k, GeometrySplitSides(cl, k));
+      if (refine_control) {
+        Refine(cl, o.refine_iterations);
+        candidate_sse = texel_sse;
+      }
       cl.HeldoutRmse(false, &control_sse);
       restore(candidate);
       double sc = 0, sn = 0;

@@ -22,6 +22,16 @@ Vec3 MaterialNormal(const Material& material, const Texel& texel, const Atlas& a
   return n.squaredNorm() > 1e-12 ? Vec3(n.normalized()) : texel.normal;
 }
 
+namespace {
+void MeanMedian(std::vector<double> v, double* mean, double* median) {
+  double sum = 0;
+  for (double d : v) sum += d;
+  *mean = sum / v.size();
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  *median = v[v.size() / 2];
+}
+}  // namespace
+
 NormalErrors CompareNormals(const Atlas& atlas, const std::vector<Vec3>& normals, const Material& truth) {
   NormalErrors out;
   for (size_t t = 0; t < atlas.texels.size() && t < normals.size(); ++t) {
@@ -29,12 +39,27 @@ NormalErrors CompareNormals(const Atlas& atlas, const std::vector<Vec3>& normals
     out.degrees.push_back(std::acos(std::clamp(gt.dot(normals[t].normalized()), -1.0, 1.0)) * 180.0 / kPi);
   }
   if (out.degrees.empty()) return out;
-  double sum = 0;
-  for (double d : out.degrees) sum += d;
-  out.mean_deg = sum / out.degrees.size();
-  std::vector<double> sorted = out.degrees;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  out.median_deg = sorted[sorted.size() / 2];
+  MeanMedian(out.degrees, &out.mean_deg, &out.median_deg);
+  const Image& id = truth.material_id;
+  if (id.width == 0 || id.channels < 1) return out;
+  std::vector<std::vector<double>> by;
+  for (size_t t = 0; t < out.degrees.size(); ++t) {
+    // The truth's id at the texel centre's uv (nearest: ids do not blend).
+    const Texel& tx = atlas.texels[t];
+    const Vec2 uv((tx.x + 0.5) / atlas.width, 1.0 - (tx.y + 0.5) / atlas.height);
+    const Vec2 p = UvToTexel(uv, id.width, id.height);
+    const int x = std::clamp(int(std::floor(p.x())), 0, id.width - 1);
+    const int y = std::clamp(int(std::floor(p.y())), 0, id.height - 1);
+    const double v = id.at(x, y, 0);
+    if (!(v >= 0 && v < 256)) continue;
+    const size_t k = size_t(v);
+    if (by.size() <= k) by.resize(k + 1);
+    by[k].push_back(out.degrees[t]);
+  }
+  out.mean_by_material.assign(by.size(), 0.0);
+  out.median_by_material.assign(by.size(), 0.0);
+  for (size_t k = 0; k < by.size(); ++k)
+    if (!by[k].empty()) MeanMedian(by[k], &out.mean_by_material[k], &out.median_by_material[k]);
   return out;
 }
 

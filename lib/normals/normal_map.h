@@ -23,6 +23,9 @@ Vec3 MaterialNormal(const Material& material, const Texel& texel, const Atlas& a
 struct NormalErrors {
   std::vector<double> degrees;  // per texel of the atlas
   double mean_deg = 0, median_deg = 0;
+  // Per true material (truth's material_id at the texel's uv, nearest):
+  // mean and median angle; empty when the truth has no material_id map.
+  std::vector<double> mean_by_material, median_by_material;
 };
 
 // Angle between `normals` (per texel of `atlas`) and the true shading normals

@@ -33,8 +33,10 @@ void NormalOptions::Check() const {
   if (!(prior_tilt > 0 && std::isfinite(prior_tilt))) fail("prior_tilt", prior_tilt, "> 0");
   if (!std::isfinite(noise)) fail("noise", noise, "finite (< 0 = estimated)");
   if (!(robust_sigmas >= 0)) fail("robust_sigmas", robust_sigmas, ">= 0");
+  if (!(robust_growth >= 1)) fail("robust_growth", robust_growth, ">= 1");
   if (!(max_tilt_deg > 0 && max_tilt_deg <= 85)) fail("max_tilt_deg", max_tilt_deg, "in (0, 85]");
   if (iterations < 1) fail("iterations", iterations, ">= 1");
+  if (material_rounds < 0) fail("--material-rounds", material_rounds, ">= 0");
   if (max_iterations < 1) fail("max_iterations", max_iterations, ">= 1");
   if (decision_texels < 100) fail("decision_texels", decision_texels, ">= 100");
   if (!(min_improvement >= 0 && min_improvement < 1)) fail("min_improvement", min_improvement, "in [0, 1)");
@@ -86,6 +88,13 @@ class Refiner {
     for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
     held_image_ = HeldOutImages(num_images, o.holdout_fraction, o.seed);
     max_ab_ = std::tan(o.max_tilt_deg * kPi / 180.0);
+    if (o.shot_noise && s.size() > 0) {
+      std::vector<float> ybar;
+      const int64_t stride = std::max<int64_t>(1, s.size() / 20000);
+      for (int64_t i = 0; i < s.size(); i += stride) ybar.push_back((s.y[0][i] + s.y[1][i] + s.y[2][i]) / 3.0f);
+      std::nth_element(ybar.begin(), ybar.begin() + ybar.size() / 2, ybar.end());
+      y_median_ = std::max(1e-6, double(ybar[ybar.size() / 2]));
+    }
     frames_.resize(nt_);
     neighbours_.resize(nt_);
     support_.resize(nt_);
@@ -143,7 +152,8 @@ class Refiner {
     Pooled p;
     p.samples = Samples(t, which);
     p.source.assign(p.samples.size(), 0);
-    p.weight.assign(p.samples.size(), 1.0);
+    p.weight.resize(p.samples.size());
+    for (size_t i = 0; i < p.samples.size(); ++i) p.weight[i] = NoiseWeight(p.samples[i].y);
     const Frame& ft = frames_[t];
     const Vec2 ab_t = tilt_of(t);
     for (size_t j = 0; j < neighbours_[t].size(); ++j) {
@@ -164,7 +174,7 @@ class Refiner {
         ts.offset[0] = offset.x(), ts.offset[1] = offset.y();
         p.samples.push_back(ts);
         p.source.push_back(int(j) + 1);
-        p.weight.push_back(o_.neighbour_weight);
+        p.weight.push_back(o_.neighbour_weight * NoiseWeight(ts.y));
       }
     }
     return p;
@@ -194,12 +204,12 @@ class Refiner {
   // Levenberg-Marquardt for the tilt (a, b) of one texel, weights fixed;
   // basis[j] holds the weighted materials of source j of the pooled samples.
   void SolveNormal(const Pooled& fit, const std::vector<std::vector<WeightedBasis>>& basis, double sigma,
-                   double* ab) const {
+                   double robust_mult, double* ab) const {
     if (basis[0].empty() || fit.samples.empty()) return;
     std::vector<const std::vector<WeightedBasis>*> per_sample(fit.samples.size());
     for (size_t i = 0; i < fit.samples.size(); ++i) per_sample[i] = &basis[fit.source[i]];
     ceres::Problem problem;
-    const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, o_.robust_sigmas * sigma) : 0.0;
+    const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, robust_mult * o_.robust_sigmas * sigma) : 0.0;
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<normals::NormalBatchCost, ceres::DYNAMIC, 2>(
             new normals::NormalBatchCost{&fit.samples, &per_sample, &fit.weight, cauchy, sigma / o_.prior_tilt},
@@ -277,8 +287,9 @@ class Refiner {
     for (const TexelSample& ts : samples) {
       double r[3];
       NormalSampleCost{&ts, &basis}(ab, r);
+      const double white = std::sqrt(NoiseWeight(ts.y));
       for (int c = 0; c < 3; ++c) {
-        if (abs_residuals) abs_residuals->push_back(float(std::abs(r[c])));
+        if (abs_residuals) abs_residuals->push_back(float(white * std::abs(r[c])));
         if (sse) *sse += r[c] * r[c];
       }
     }
@@ -331,6 +342,7 @@ class Refiner {
     double sigma = Sigma(texels, which, *st);
     if (!refine) return sigma;
     for (int it = 0; it < o_.iterations; ++it) {
+      const double robust_mult = std::pow(o_.robust_growth, o_.iterations - 1 - it);
       const std::vector<double> ab_before = st->ab;  // read by neighbours while st->ab is written
       auto tilt_of = [&](int u) {
         return slot[u] >= 0 ? Vec2(ab_before[2 * slot[u]], ab_before[2 * slot[u] + 1]) : Vec2::Zero();
@@ -340,7 +352,7 @@ class Refiner {
         const Pooled fit = PooledSamples(t, which, tilt_of);
         std::vector<std::vector<WeightedBasis>> basis{Basis(t, weights_of(t))};
         for (int u : neighbours_[t]) basis.push_back(Basis(u, weights_of(u)));
-        SolveNormal(fit, basis, sigma, &st->ab[2 * j]);
+        SolveNormal(fit, basis, sigma, robust_mult, &st->ab[2 * j]);
         if (progress) progress->Tick();
       }, 16);
       solve_weights();
@@ -380,6 +392,13 @@ class Refiner {
   std::vector<std::vector<int>> neighbours_;
   std::vector<std::vector<int>> support_;
   double max_ab_ = 1.0;
+  double y_median_ = 0;  // > 0: shot-noise weights (NoiseWeight)
+
+ public:
+  // Inverse relative variance of a sample of mean brightness ybar (1 without shot_noise).
+  double NoiseWeight(const double* y) const {
+    return y_median_ > 0 ? 1.0 / (1.0 + std::max(0.0, (y[0] + y[1] + y[2]) / 3.0) / y_median_) : 1.0;
+  }
 };
 
 State MakeState(size_t n, int K) { return State{std::vector<double>(2 * n, 0.0), std::vector<float>(n * K * 3, 0.0f)}; }

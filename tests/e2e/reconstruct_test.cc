@@ -256,6 +256,17 @@ TEST(Reconstruct, MetalIsRecognisedAsConductor) {
 // found as coated-ggx, the metal cluster mixed). The active
 // test guards that floor; the target (right count, metal recognised) is the
 // disabled test below, to be enabled when the clustering meets it.
+// Still disabled at the issue-8 materials round (measured on mixed_tiny, seed
+// 11, at f9b9b4c): 3 basis materials now (lambert and coated-ggx with the true
+// parameters within 1-3 %), but the bumped copper is fitted as
+// cook_torrance-beckmann (rs at its bound 1, 70 % of its held-out signal
+// unexplained) and held-out PSNR is 31.3 dB. The normal refinement recovers
+// the bumps of the matte and the coated plastic (a run with --clusters 3 and
+// the experimental shot-noise weights:
+// mean angle to the true normals 1.6 and 0.8 deg, mesh normals 3.6 and
+// 3.2 deg) but not the metal's (6.9 deg, mesh 3.9 deg): its normals are
+// fitted with a wrong material, and the conductor fitted under the mesh
+// normals loses to it on held-out photos.
 TEST(Reconstruct, MixedMaterialsRegression) {
   const Outcome r = RunCase("mixed_tiny", SynthPreset("mixed_tiny"));
   EXPECT_GE(r.clusters, 1);
