@@ -7,6 +7,7 @@
 #include "cluster/holdout.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/progress.h"
 
 namespace svbrdf {
 
@@ -239,7 +240,7 @@ StageLog::StageLog(bool on) : on_(on), t0_(std::chrono::steady_clock::now()) {}
 
 void StageLog::operator()(const std::string& s) const {
   const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
-  if (on_) std::fprintf(stderr, "  [%6.1f s] %s\n", t, s.c_str());
+  if (on_) std::fprintf(stderr, "  [%6.1f s, CPU %6.1f s] %s\n", t, ProcessCpuSeconds(), s.c_str());
 }
 
 }  // namespace svbrdf
