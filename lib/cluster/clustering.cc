@@ -217,17 +217,21 @@ BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
 }
 
 // Assign and refit until stable or `iterations` done; drops empty clusters.
-void Refine(Clustering& cl, int iterations) {
+void Refine(Clustering& cl, int iterations, bool fits_current) {
   for (int it = 0; it < iterations; ++it) {
     const long changed = cl.Assign();
+    bool removed = false;  // renumbers the clusters: MembershipChanged no longer applies
     for (int k = cl.K() - 1; k >= 0; --k) {
       const bool empty = std::none_of(cl.assign().begin(), cl.assign().end(), [&](int a) { return a == k; }) ||
                          cl.Ids(k, false).empty();
-      if (empty && cl.K() > 1) cl.RemoveBasis(k);
+      if (empty && cl.K() > 1) cl.RemoveBasis(k), removed = true;
     }
     if (changed == 0 && it > 0) break;
     for (int k = 0; k < cl.K(); ++k) {
-      if (it > 0 && !cl.MembershipChanged(k)) continue;
+      // A cluster whose texels did not change keeps its fit when that fit
+      // was made on exactly these texels (after the first pass, or when the
+      // caller says so: the split search's untouched clusters and halves).
+      if ((it > 0 || fits_current) && !removed && !cl.MembershipChanged(k)) continue;
       BasisMaterial b = cl.basis()[k];
       // Warm start: the material already fits most of the cluster's texels.
       b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;

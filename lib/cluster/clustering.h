@@ -110,7 +110,10 @@ uint64_t PartitionKey(const std::vector<int>& assign);
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index);
 
 // Assign and refit until stable or `iterations` done; drops empty clusters.
-void Refine(Clustering& cl, int iterations);
+// fits_current: every basis was fitted on its cluster's current texels (all
+// training samples, as Clustering::Fit does), so the first pass refits only
+// the clusters whose membership the assignment changes.
+void Refine(Clustering& cl, int iterations, bool fits_current = false);
 
 // Progress lines with the time since the estimate started.
 class StageLog {
