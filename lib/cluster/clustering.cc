@@ -94,14 +94,17 @@ FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double
 }
 
 FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                             int64_t max_samples, int threads, int k, bool multi_start) const {
+                             int64_t max_samples, int threads, int k, bool multi_start, bool init_is_fit) const {
   FitOptions fo = o_.fit;
   fo.multi_start = fo.multi_start && multi_start;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   fo.robust_scale = std::max(0.0, o_.robust_scale);
   fo.context = k >= 0 ? Msg("reconstruct: cluster ", k, " (", stage, ")") : Msg("reconstruct: ", stage);
-  FitResult ls = FitModel(spec, s_, ids, fo, init);
+  const bool skip_ls = init_is_fit && !init.empty() && o_.robust_scale < 0 && !ids.empty();
+  FitResult ls;
+  if (skip_ls) ls.params = init;
+  else ls = FitModel(spec, s_, ids, fo, init);
   if (o_.robust_scale >= 0 || ids.empty()) return ls;
   std::vector<float> r;
   const size_t step = std::max<size_t>(1, ids.size() / 20000);
@@ -113,7 +116,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
   fo.multi_start = false;
   FitResult robust = FitModel(spec, s_, ids, fo, ls.params);
-  return robust.converged || !ls.converged ? robust : ls;
+  return skip_ls || robust.converged || !ls.converged ? robust : ls;
 }
 
 double Clustering::ScaledError(int t, int k, bool heldout) const {
