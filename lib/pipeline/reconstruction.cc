@@ -119,6 +119,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.seed = eo.seed;
   no.threads = eo.threads;
   no.progress = no.progress && eo.progress;
+  no.deadline = eo.deadline;
   NormalRefinement nr;
   nlohmann::json normals_rounds = nlohmann::json::array();
   if (no.Enabled() && eo.SecondsLeft() <= 0) {
@@ -127,6 +128,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     timer.Start("refine normals");
     nr = RefineNormals(g.samples, g.atlas, est, no);
     std::fprintf(stderr, "  %s\n", nr.Report().c_str());
+    if (nr.cut_by_deadline) est.cut_by_deadline.push_back("normal refinement (kept by the decision, no time for all texels)");
     normals_rounds.push_back(NormalsJson(nr, est));
     const bool recluster_fits = eo.SecondsLeft() > cluster_seconds;
     if (nr.kept && no.recluster && !recluster_fits) est.cut_by_deadline.push_back("second clustering");
