@@ -72,6 +72,7 @@ def main():
             k = re.search(r"\((\d+) basis materials\)", log)
             mean, low = psnr(a.binary, mat, heldout, work)
             r = {"budget_s": b, "wall_s": wall, "cpu_s": cpu, "peak_mb": peak, "clusters": int(k.group(1)),
+                 "load_1min_after": os.getloadavg()[0],
                  "psnr_mean_db": mean, "psnr_min_db": low}
             print(os.path.basename(cap.rstrip("/")), r, flush=True)
             runs.append(r)
@@ -86,12 +87,12 @@ def main():
          "times are inflated; the budget is wall time, so under load a budget buys less work than on an idle "
          "machine. Produced by `scripts/time_accuracy.py` on %s." % (results["nproc"], load[0], results["date"]), ""]
     for c in results["captures"]:
-        L += ["## %s" % c["capture"], "", "| budget (s) | wall (s) | CPU (s) | clusters | PSNR mean (dB) | PSNR min (dB) |",
-              "|---:|---:|---:|---:|---:|---:|"]
+        L += ["## %s" % c["capture"], "", "| budget (s) | wall (s) | CPU (s) | load (1 min, after) | clusters | PSNR mean (dB) | PSNR min (dB) |",
+              "|---:|---:|---:|---:|---:|---:|---:|"]
         for r in c["runs"]:
-            L.append("| %s | %.1f | %.1f | %d | %.2f | %.2f |" % (
-                "none" if r["budget_s"] == 0 else "%g" % r["budget_s"], r["wall_s"], r["cpu_s"], r["clusters"],
-                r["psnr_mean_db"], r["psnr_min_db"]))
+            L.append("| %s | %.1f | %.1f | %.1f | %d | %.2f | %.2f |" % (
+                "none" if r["budget_s"] == 0 else "%g" % r["budget_s"], r["wall_s"], r["cpu_s"], r.get("load_1min_after", 0),
+                r["clusters"], r["psnr_mean_db"], r["psnr_min_db"]))
         L.append("")
     open(a.out + ".md", "w").write("\n".join(L) + "\n")
 

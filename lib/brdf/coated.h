@@ -38,13 +38,21 @@ template <class T> struct Coated {
   RgbT<T> rd;
   T m, n;
   Distribution distribution = Distribution::kGGX;
+  // F_int(n), set by Prepare() once the parameters are read (batched
+  // evaluation: it depends on n only and costs as much as the rest of f).
+  T f_int_prepared = T(0);
+  bool prepared = false;
+  void Prepare() {
+    f_int_prepared = DielectricInternalDiffuseReflectance(n);
+    prepared = true;
+  }
 
   RgbT<T> f(const Vec3T<T>& wi, const Vec3T<T>& wo) const {
     const Vec3T<T> h = HalfVector(wi, wo);
     const T coat = SmithMicrofacet(distribution, wi, wo, h, m) * FresnelDielectric(Dot(h, wo), n);
     const T through = (T(1) - FresnelDielectric(wi.z(), n)) * (T(1) - FresnelDielectric(wo.z(), n)) /
                       (T(kPi) * n * n);
-    const T f_int = DielectricInternalDiffuseReflectance(n);
+    const T f_int = prepared ? f_int_prepared : DielectricInternalDiffuseReflectance(n);
     RgbT<T> v;
     for (int c = 0; c < 3; ++c) v[c] = coat + rd[c] * through / (T(1) - rd[c] * f_int);
     return v;

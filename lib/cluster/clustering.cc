@@ -7,6 +7,7 @@
 #include "cluster/holdout.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/progress.h"
 
 namespace svbrdf {
 
@@ -93,14 +94,17 @@ FitResult Clustering::Fit(const ModelSpec& spec, int k, const std::vector<double
 }
 
 FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                             int64_t max_samples, int threads, int k, bool multi_start) const {
+                             int64_t max_samples, int threads, int k, bool multi_start, bool init_is_fit) const {
   FitOptions fo = o_.fit;
   fo.multi_start = fo.multi_start && multi_start;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   fo.robust_scale = std::max(0.0, o_.robust_scale);
   fo.context = k >= 0 ? Msg("reconstruct: cluster ", k, " (", stage, ")") : Msg("reconstruct: ", stage);
-  FitResult ls = FitModel(spec, s_, ids, fo, init);
+  const bool skip_ls = init_is_fit && !init.empty() && o_.robust_scale < 0 && !ids.empty();
+  FitResult ls;
+  if (skip_ls) ls.params = init;
+  else ls = FitModel(spec, s_, ids, fo, init);
   if (o_.robust_scale >= 0 || ids.empty()) return ls;
   std::vector<float> r;
   const size_t step = std::max<size_t>(1, ids.size() / 20000);
@@ -112,7 +116,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
   fo.multi_start = false;
   FitResult robust = FitModel(spec, s_, ids, fo, ls.params);
-  return robust.converged || !ls.converged ? robust : ls;
+  return skip_ls || robust.converged || !ls.converged ? robust : ls;
 }
 
 double Clustering::ScaledError(int t, int k, bool heldout) const {
@@ -216,17 +220,21 @@ BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
 }
 
 // Assign and refit until stable or `iterations` done; drops empty clusters.
-void Refine(Clustering& cl, int iterations) {
+void Refine(Clustering& cl, int iterations, bool fits_current) {
   for (int it = 0; it < iterations; ++it) {
     const long changed = cl.Assign();
+    bool removed = false;  // renumbers the clusters: MembershipChanged no longer applies
     for (int k = cl.K() - 1; k >= 0; --k) {
       const bool empty = std::none_of(cl.assign().begin(), cl.assign().end(), [&](int a) { return a == k; }) ||
                          cl.Ids(k, false).empty();
-      if (empty && cl.K() > 1) cl.RemoveBasis(k);
+      if (empty && cl.K() > 1) cl.RemoveBasis(k), removed = true;
     }
     if (changed == 0 && it > 0) break;
     for (int k = 0; k < cl.K(); ++k) {
-      if (it > 0 && !cl.MembershipChanged(k)) continue;
+      // A cluster whose texels did not change keeps its fit when that fit
+      // was made on exactly these texels (after the first pass, or when the
+      // caller says so: the split search's untouched clusters and halves).
+      if ((it > 0 || fits_current) && !removed && !cl.MembershipChanged(k)) continue;
       BasisMaterial b = cl.basis()[k];
       // Warm start: the material already fits most of the cluster's texels.
       b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
@@ -239,7 +247,7 @@ StageLog::StageLog(bool on) : on_(on), t0_(std::chrono::steady_clock::now()) {}
 
 void StageLog::operator()(const std::string& s) const {
   const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
-  if (on_) std::fprintf(stderr, "  [%6.1f s] %s\n", t, s.c_str());
+  if (on_) std::fprintf(stderr, "  [%6.1f s, CPU %6.1f s] %s\n", t, ProcessCpuSeconds(), s.c_str());
 }
 
 }  // namespace svbrdf

@@ -59,8 +59,12 @@ class Clustering {
   FitResult Fit(const ModelSpec& spec, int k, const std::vector<double>& init, int64_t max_samples = 0,
                 int threads = -1, bool multi_start = true) const;
   // The same on the samples `ids` (of cluster `k`, named in fit errors; < 0: not one cluster).
+  // init_is_fit: `init` is already a least-squares fit to (a random subset
+  // of) these samples, e.g. a screening fit, so the robust fit starts from it
+  // directly instead of after a least-squares solve of its own.
   FitResult FitIds(const ModelSpec& spec, const std::vector<int64_t>& ids, const std::vector<double>& init,
-                   int64_t max_samples = 0, int threads = -1, int k = -1, bool multi_start = true) const;
+                   int64_t max_samples = 0, int threads = -1, int k = -1, bool multi_start = true,
+                   bool init_is_fit = false) const;
 
   // Squared error of texel t's samples under basis k with the best brightness
   // scale a in [0.5, 2] shared by the channels (a texel may be darker or
@@ -110,7 +114,10 @@ uint64_t PartitionKey(const std::vector<int>& assign);
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index);
 
 // Assign and refit until stable or `iterations` done; drops empty clusters.
-void Refine(Clustering& cl, int iterations);
+// fits_current: every basis was fitted on its cluster's current texels (all
+// training samples, as Clustering::Fit does), so the first pass refits only
+// the clusters whose membership the assignment changes.
+void Refine(Clustering& cl, int iterations, bool fits_current = false);
 
 // Progress lines with the time since the estimate started.
 class StageLog {

@@ -130,7 +130,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
     const std::vector<size_t> finalists = Finalists(tried, o.parsimony * signal);
     ParallelFor(long(finalists.size()), o.threads, [&](long f) {
       Tried& t = tried[finalists[f]];
-      t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, false);
+      t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, false, true);
       t.errors = SampleErrors(t.spec, t.fit.params, samples, hold);
       t.rmse = TrimmedRmse(t.errors);
       t.final = true;

@@ -116,7 +116,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const bool honest_test = o.force_clusters == 0 && o.control_split;
     const bool refine_control = lookahead;
     if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
-    Refine(cl, o.refine_iterations);
+    Refine(cl, o.refine_iterations, true);
     const uint64_t key = PartitionKey(cl.assign());
     if (!evaluated.insert(key).second) {
       ++est.states_revisited;

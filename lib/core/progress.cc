@@ -1,5 +1,7 @@
 #include "core/progress.h"
 
+#include <ctime>
+
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -47,11 +49,13 @@ void StageTimer::Start(const std::string& name) {
   if (!current_.empty()) Stop();
   current_ = name;
   t0_ = std::chrono::steady_clock::now();
+  cpu0_ = ProcessCpuSeconds();
 }
 
 void StageTimer::Stop() {
   if (current_.empty()) return;
-  stages_.push_back({current_, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count()});
+  stages_.push_back({current_, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(),
+                     ProcessCpuSeconds() - cpu0_});
   current_.clear();
 }
 
@@ -65,12 +69,18 @@ std::string StageTimer::Report() const {
   std::ostringstream os;
   char line[160];
   for (const auto& st : stages_) {
-    std::snprintf(line, sizeof line, "  %-24s %9.3f s\n", st.name.c_str(), st.seconds);
+    std::snprintf(line, sizeof line, "  %-24s %9.3f s   CPU %8.3f s\n", st.name.c_str(), st.seconds, st.cpu_seconds);
     os << line;
   }
   std::snprintf(line, sizeof line, "  %-24s %9.3f s   peak memory %.0f MB\n", "total", Total(), PeakMemoryMB());
   os << line;
   return os.str();
+}
+
+double ProcessCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 double PeakMemoryMB() {

@@ -34,6 +34,7 @@ class StageTimer {
   struct Stage {
     std::string name;
     double seconds;
+    double cpu_seconds = 0;  // CPU time of the whole process (all threads) in the stage
   };
   void Start(const std::string& name);
   void Stop();  // stops the current stage
@@ -45,8 +46,12 @@ class StageTimer {
   std::vector<Stage> stages_;
   std::string current_;
   std::chrono::steady_clock::time_point t0_;
+  double cpu0_ = 0;
 };
 
 double PeakMemoryMB();  // VmHWM of this process, from /proc/self/status
+// CPU time (user + sys) of this process so far, all threads: the per-stage
+// CPU/wall ratio shows whether both cores worked, whatever else runs.
+double ProcessCpuSeconds();
 
 }  // namespace svbrdf

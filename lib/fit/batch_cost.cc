@@ -40,14 +40,17 @@ struct BatchResidual {
 
   template <class T>
   bool Eval(const T* p, T* residuals) const {
+    // The model's values first (one parameter read for the whole batch),
+    // written into the residuals, then turned into residuals in place.
+    EvalModelBatch(spec, p, count, [this](int i, Vec3T<T>* wi, Vec3T<T>* wo) {
+      const double* s = rows + i * PackedSamples::kStride;
+      *wi = Vec3T<T>{T(s[0]), T(s[1]), T(s[2])};
+      *wo = Vec3T<T>{T(s[3]), T(s[4]), T(s[5])};
+    }, residuals);
     for (int i = 0; i < count; ++i) {
       const double* s = rows + i * PackedSamples::kStride;
-      const Vec3T<T> wi{T(s[0]), T(s[1]), T(s[2])};
-      const Vec3T<T> wo{T(s[3]), T(s[4]), T(s[5])};
-      T f[3];
-      EvalModel(spec, p, wi, wo, f);
       for (int c = 0; c < 3; ++c) {
-        const T r = f[c] * s[6] - s[7 + c];
+        const T r = residuals[3 * i + c] * s[6] - s[7 + c];
         residuals[3 * i + c] = robust_scale > 0 ? CauchyResidual(r, robust_scale) : r;
       }
     }

@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -449,6 +450,7 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
                     o.progress);
 
   out.kept = true;
+  const auto decision_start = std::chrono::steady_clock::now();
   if (decide) {
     out.decision_texels = long(candidates.size());
     State mesh = MakeState(candidates.size(), K), tilted = MakeState(candidates.size(), K);
@@ -460,6 +462,17 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     out.heldout_rmse_mesh = std::sqrt(sse_mesh / std::max<int64_t>(1, n_mesh));
     out.heldout_rmse_refined = std::sqrt(sse_tilted / std::max<int64_t>(1, n_tilted));
     out.kept = sse_tilted < (1.0 - o.min_improvement) * sse_mesh;
+    // The final fit refines every texel once, the decision the candidates
+    // twice (mesh and tilted arms): its cost scales from the decision's.
+    const auto now = std::chrono::steady_clock::now();
+    const double estimate = std::chrono::duration<double>(now - decision_start).count() * double(texels.size()) /
+                            (2.0 * double(candidates.size()));
+    if (out.kept && o.deadline != std::chrono::steady_clock::time_point::max() &&
+        now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(estimate)) >
+            o.deadline) {
+      out.kept = false;
+      out.cut_by_deadline = true;
+    }
   }
   if (!out.kept) {
     progress.Finish();

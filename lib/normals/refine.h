@@ -35,6 +35,7 @@
 // all samples. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -94,6 +95,10 @@ struct NormalOptions {
   uint64_t seed = 1;              // must match the clustering's
   int threads = 0;
   bool progress = true;
+  // Anytime (reconstruct --time-budget): when the held-out decision took
+  // so long that the fit on all texels (estimated from it) would end after
+  // this, the refinement is not kept (cut_by_deadline) instead of overrunning.
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
   void Check() const;
   bool Enabled() const { return mode != "off"; }
 };
@@ -110,6 +115,7 @@ struct NormalRefinement {
   double heldout_rmse_refined = 0;  // ... and with refined normals
   long decision_texels = 0;
   double mean_tilt_deg = 0, median_tilt_deg = 0;  // of refined texels, from the mesh normal
+  bool cut_by_deadline = false;     // kept by the decision, but no time left for the fit on all texels
   std::string Report() const;
 };
 

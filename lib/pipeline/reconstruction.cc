@@ -127,6 +127,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.seed = eo.seed;
   no.threads = eo.threads;
   no.progress = no.progress && eo.progress;
+  no.deadline = eo.deadline;
   NormalRefinement nr;
   nlohmann::json normals_rounds = nlohmann::json::array();
   if (no.Enabled() && eo.SecondsLeft() <= 0) {
@@ -135,6 +136,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     timer.Start("refine normals");
     nr = RefineNormals(g.samples, g.atlas, est, no);
     std::fprintf(stderr, "  %s\n", nr.Report().c_str());
+    if (nr.cut_by_deadline) est.cut_by_deadline.push_back("normal refinement (kept by the decision, no time for all texels)");
     normals_rounds.push_back(NormalsJson(nr, est));
     const bool recluster_fits = eo.SecondsLeft() > cluster_seconds;
     if (nr.kept && no.recluster && !recluster_fits) est.cut_by_deadline.push_back("second clustering");
@@ -246,6 +248,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   }
   timer.Stop();
   for (const auto& st : timer.stages()) summary["timings_s"][st.name] = st.seconds;
+  for (const auto& st : timer.stages()) summary["cpu_s"][st.name] = st.cpu_seconds;
   summary["total_s"] = timer.Total();
   summary["peak_memory_mb"] = PeakMemoryMB();
   if (job.report) WriteFileAtomic(job.out_dir + "/report/summary.json", summary.dump(2));
