@@ -172,7 +172,14 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     ParallelFor(nt, options.threads, [&](long t) {
       const Texel& tx = atlas.texels[t];
       Record& r = recs[t];
-      if (no_border && !tx.interior) return void(r.reason = kBorderTexel);
+      if (no_border && !tx.interior) {
+        // Distance (texels) from the texel centre to the clamped point it measures.
+        const Vec3i& fu = out.mesh.face_uvs[tx.prim];
+        const Vec2 uv = (1 - tx.b1 - tx.b2) * out.mesh.texcoords[fu[0]] + tx.b1 * out.mesh.texcoords[fu[1]] +
+                        tx.b2 * out.mesh.texcoords[fu[2]];
+        const Vec2 offset = UvToTexel(uv, atlas.width, atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5);
+        if (offset.norm() > options.border_texel_max_offset) return void(r.reason = kBorderTexel);
+      }
       const Vec3 x = tx.position, n = tx.normal;
       const Vec3 xc = e.cam_from_world * x;
       if (xc.z() <= 1e-9) return void(r.reason = kOutsideImage);
