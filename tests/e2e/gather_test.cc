@@ -139,6 +139,7 @@ TEST(Gather, ChartAtlasBorderTexelsTakeNoSamples) {
   GatherOptions go;
   go.progress = false;
   go.footprint_rays = 0;
+  go.border_texel_samples = false;
   // Samples on texels outside every UV triangle whose measured (clamped)
   // point lies farther than half a texel from the texel centre.
   auto border_samples = [](const GatherResult& g) {
