@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <random>
 #include <unistd.h>
 
 #include "calib/board.h"
@@ -119,41 +120,76 @@ TEST(Calib, ExposureFromExif) {
   }
 }
 
-// Debevec-Malik response recovery and merge (OpenCV) on 8-bit sRGB-encoded
-// brackets of a known radiance field spanning four decades: the merged
-// radiance is proportional to the truth (the response is only recovered up
-// to scale, so the scale is fitted).
-TEST(Calib, DebevecMergeOf8BitBracketsIsLinear) {
-  const int w = 160, h = 120;
-  Image truth(w, h, 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c)  // a scene of small patches, log-uniform over four decades (1e-3 .. 10)
-        truth.at(x, y, c) = float(1e-3 * std::pow(1e4, std::fmod(0.618034 * ((x / 4) * 31 + (y / 4) * 17 + c * 7), 1.0)));
-  const std::vector<double> seconds = {1.0 / 1000, 1.0 / 250, 1.0 / 60, 1.0 / 15, 1.0 / 4, 1.0};
+// Response recovery and merge of 8-bit brackets of a known radiance field
+// spanning four decades: the merged radiance must be proportional to the
+// truth (a response is only known up to scale, so the scale is fitted).
+// Several random scenes, bracket sets and camera responses.
+struct Brackets {
+  Image truth;
   std::vector<Image> shots;
+};
+Brackets MakeBrackets(uint64_t seed, const std::vector<double>& seconds, float (*response)(float)) {
+  const int w = 160, h = 120;
+  Brackets b{Image(w, h, 3), {}};
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int y = 0; y < h; y += 4)
+    for (int x = 0; x < w; x += 4)
+      for (int c = 0; c < 3; ++c) {  // 4x4 patches, log-uniform over 1e-3 .. 10
+        const float v = float(1e-3 * std::pow(1e4, u(rng)));
+        for (int dy = 0; dy < 4; ++dy)
+          for (int dx = 0; dx < 4; ++dx) b.truth.at(x + dx, y + dy, c) = v;
+      }
+  // The brightest pixel at 0.8 of the range in the shortest exposure.
+  const double gain = 0.8 / (10 * *std::min_element(seconds.begin(), seconds.end()));
   for (double t : seconds) {
     Image s(w, h, 3);
-    for (size_t i = 0; i < s.pixels.size(); ++i)  // sRGB 8-bit camera; the brightest pixel at 0.8 in the shortest
-      s.pixels[i] = std::round(255 * LinearToSrgb(std::clamp(float(truth.pixels[i] * t * 80), 0.0f, 1.0f))) / 255;
-    shots.push_back(s);
+    for (size_t i = 0; i < s.pixels.size(); ++i)
+      s.pixels[i] = std::round(255 * response(std::clamp(float(b.truth.pixels[i] * t * gain), 0.0f, 1.0f))) / 255;
+    b.shots.push_back(s);
   }
-  const HdrResult hdr = MergeDebevec(shots, seconds);
+  return b;
+}
+float SrgbResponse(float v) { return LinearToSrgb(v); }
+// A film-like curve: gamma 1/2.2 with a soft shoulder.
+float FilmResponse(float v) { return std::pow(v, 1 / 2.2f) * (1.3f - 0.3f * v); }
+
+double RmsFromLinear(const Image& merged, const Image& truth) {
   std::vector<double> ratios;
-  for (size_t i = 0; i < truth.pixels.size(); ++i) ratios.push_back(hdr.radiance.pixels[i] / truth.pixels[i]);
+  for (size_t i = 0; i < truth.pixels.size(); ++i) ratios.push_back(merged.pixels[i] / truth.pixels[i]);
   std::vector<double> sorted = ratios;
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
   const double scale = sorted[sorted.size() / 2];
-  double sum2 = 0, worst = 0;
-  for (double r : ratios) sum2 += std::pow(r / scale - 1, 2), worst = std::max(worst, std::abs(r / scale - 1));
-  const double rms = std::sqrt(sum2 / ratios.size());
-  std::printf("Debevec merge of 6 8-bit brackets: relative RMS deviation from linear %.4f, worst %.4f\n", rms, worst);
-  // Issue 10 asks for 1 %: measured 1.5 % (8-bit quantisation of the dark
-  // end; OpenCV's own MergeDebevec: 24 %), so 2 % is asserted.
-  EXPECT_LT(rms, 0.02);
-  long saturated = 0;
-  for (float v : hdr.saturated.pixels) saturated += v > 0;
-  EXPECT_EQ(saturated, 0);  // the shortest exposure clips nowhere
+  double sum2 = 0;
+  for (double r : ratios) sum2 += std::pow(r / scale - 1, 2);
+  return std::sqrt(sum2 / ratios.size());
+}
+
+TEST(Calib, DebevecMergeOf8BitBracketsIsLinear) {
+  const std::vector<std::vector<double>> sets = {{1.0 / 1000, 1.0 / 250, 1.0 / 60, 1.0 / 15, 1.0 / 4, 1.0},
+                                                 {1.0 / 1000, 1.0 / 125, 1.0 / 15, 1.0 / 2},
+                                                 {1.0 / 500, 1.0 / 250, 1.0 / 125, 1.0 / 60, 1.0 / 30, 1.0 / 15,
+                                                  1.0 / 8, 1.0 / 4, 1.0 / 2}};
+  double worst = 0, worst_cv = 0;
+  for (uint64_t seed : {1, 2, 3})
+    for (size_t s = 0; s < sets.size(); ++s)
+      for (auto response : {&SrgbResponse, &FilmResponse}) {
+        const Brackets b = MakeBrackets(seed, sets[s], response);
+        const HdrResult hdr = MergeDebevec(b.shots, sets[s]);
+        const double rms = RmsFromLinear(hdr.radiance, b.truth);
+        // OpenCV's response and merge for comparison, on the first scene only (slow).
+        const double rms_cv = seed == 1 ? RmsFromLinear(MergeDebevecOpenCv(b.shots, sets[s]).radiance, b.truth) : 0;
+        std::printf("seed %d, %zu brackets, %s response: RMS deviation from linear %.4f (OpenCV Debevec + Robertson %.4f)\n",
+                    int(seed), sets[s].size(), response == &SrgbResponse ? "sRGB" : "film", rms, rms_cv);
+        worst = std::max(worst, rms), worst_cv = std::max(worst_cv, rms_cv);
+        long saturated = 0;
+        for (float v : hdr.saturated.pixels) saturated += v > 0;
+        EXPECT_EQ(saturated, 0);  // the shortest exposure clips nowhere
+      }
+  std::printf("8-bit HDR merge: worst RMS deviation from linear %.4f (OpenCV %.4f)\n", worst, worst_cv);
+  // Measured worst 0.85 % (polynomial degree 6; degree 4: 1.75 %, 8: 1.8 %;
+  // the free Debevec-Malik response: 2.0 %, OpenCV's: 4.6 %).
+  EXPECT_LT(worst, 0.01);  // issue 10: linear within 1 %
 }
 
 }  // namespace

@@ -86,17 +86,25 @@ Vec3 NearestPointToRays(const std::vector<Ray3>& rays, double* rms_m) {
   return x;
 }
 
-double IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light) {
-  std::vector<double> est;
+void AppendIntensityEstimates(const std::vector<DiffuseSample>& samples, const Vec3& light, std::vector<double>* est) {
   for (const DiffuseSample& s : samples) {
     const Vec3 to_l = light - s.point;
     const double r2 = to_l.squaredNorm(), cos_i = s.normal.dot(to_l.normalized());
     if (cos_i < 0.2 || s.albedo <= 0 || s.exposure <= 0 || !(s.value > 0)) continue;
-    est.push_back(s.value * kPi * r2 / (s.exposure * s.albedo * cos_i));
+    est->push_back(s.value * kPi * r2 / (s.exposure * s.albedo * cos_i));
   }
+}
+
+double MedianIntensity(std::vector<double> est) {
   if (est.empty()) throw Error("light intensity: no usable diffuse reference samples");
   std::nth_element(est.begin(), est.begin() + est.size() / 2, est.end());
   return est[est.size() / 2];
+}
+
+double IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light) {
+  std::vector<double> est;
+  AppendIntensityEstimates(samples, light, &est);
+  return MedianIntensity(std::move(est));
 }
 
 }  // namespace svbrdf

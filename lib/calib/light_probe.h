@@ -47,5 +47,11 @@ struct DiffuseSample {
 // Median point-light intensity (W/sr in the image's units) from reference
 // samples; throws Error with no usable sample.
 double IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light_position);
+// The same in parts, for a light that moves between photos (a flash): each
+// usable sample's estimate appended (grazing, < 0.2 cosine, or dark samples
+// skipped), then the median (throws Error when empty).
+void AppendIntensityEstimates(const std::vector<DiffuseSample>& samples, const Vec3& light_position,
+                              std::vector<double>* estimates);
+double MedianIntensity(std::vector<double> estimates);
 
 }  // namespace svbrdf

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <unistd.h>
 
 #include "calib/board.h"
@@ -20,6 +21,7 @@
 #include "io/scene.h"
 #include "registration/board_bundle.h"
 #include "registration/colmap_sfm.h"
+#include "registration/lamp_position.h"
 #include "registration/silhouette.h"
 
 namespace svbrdf {
@@ -42,6 +44,28 @@ T Field(const nlohmann::json& j, const char* key, const std::string& context) {
   } catch (const std::exception& e) {
     throw Error(Msg(context, ": field '", key, "': ", e.what()));
   }
+}
+
+KnownDistance KnownDistanceFromJson(const nlohmann::json& j, const std::string& context) {
+  KnownDistance k;
+  k.metres = Field<double>(j, "metres", context);
+  if (j.contains("images")) {
+    const auto names = Field<std::vector<std::string>>(j, "images", context);
+    if (names.size() != 2) throw Error(Msg(context, ": images: expected two photo files"));
+    k.image_a = ColmapImageName(names[0]), k.image_b = ColmapImageName(names[1]);
+  } else if (j.contains("point_ids")) {
+    const auto ids = Field<std::vector<long>>(j, "point_ids", context);
+    if (ids.size() != 2) throw Error(Msg(context, ": point_ids: expected two ids of points3D.txt"));
+    k.point_a = ids[0], k.point_b = ids[1];
+  } else {
+    for (const auto& p : Field<std::vector<std::vector<double>>>(j, "points", context)) {
+      if (p.size() != 3) throw Error(Msg(context, ": points: expected [[x, y, z], [x, y, z]]"));
+      k.points.push_back(Vec3(p[0], p[1], p[2]));
+    }
+    if (k.points.size() != 2) throw Error(Msg(context, ": points: expected two points"));
+  }
+  if (!(k.metres > 0)) throw Error(Msg(context, ": metres must be > 0"));
+  return k;
 }
 
 Rigid3 PoseFromJson(const nlohmann::json& j, const std::string& context) {
@@ -220,7 +244,18 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     std::map<std::string, Rigid3> known;
     for (size_t i = 0; i < photos.size(); ++i)
       if (photos[i].posed) known[ColmapImageName(photo_paths[i])] = photos[i].cam_from_world;
-    const ColmapToBoard align = AlignColmapToBoard(model, known);
+    // Placed by the photos that show the board (3 or more); else scaled by
+    // a known distance (orientation and origin then stay COLMAP's, and every
+    // photo takes its COLMAP pose); with both, the known distance is a check.
+    std::optional<ColmapToBoard> by_distance;
+    if (desc.contains("known_distance"))
+      by_distance = ScaleColmapByKnownDistance(model, KnownDistanceFromJson(desc["known_distance"], ctx + ": known_distance"));
+    const bool by_board = known.size() >= 3 || !by_distance;
+    const ColmapToBoard align = by_board ? AlignColmapToBoard(model, known) : *by_distance;
+    if (!by_board) {  // board poses (fewer than 3) are in another frame
+      for (Photo& p : photos) p.posed = false;
+      known.clear();
+    }
     // Agreement of the two pose sources where both exist.
     double worst_deg = 0, worst_mm = 0;
     for (const ColmapImage& im : model.images) {
@@ -241,7 +276,9 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     report["colmap"] = {{"registered_images", model.images.size()}, {"points", model.points.size()},
                         {"placed_by_board_photos", align.matched}, {"scale", align.scale},
                         {"centre_rms_mm", 1e3 * align.centre_rms_m}, {"photos_posed_only_by_colmap", newly_posed},
-                        {"vs_board_worst_deg", worst_deg}, {"vs_board_worst_mm", worst_mm}};
+                        {"vs_board_worst_deg", worst_deg}, {"vs_board_worst_mm", worst_mm},
+                        {"placed_by", by_board ? "board" : "known_distance"}};
+    if (by_distance) report["colmap"]["known_distance_scale"] = by_distance->scale;
     fs::remove_all(ws);
     timer.Stop();
   } else if (pose_mode != "board") {
@@ -300,6 +337,38 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     }
   }
   const BoardTexture tex = DrawBoard(board, 32);
+  // The diffuse reference of known albedo: board points on white paper
+  // (texture value 1 all round them) seen in posed photo k, not hidden by the
+  // object, away from the mirror balls, not clipped.
+  const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
+  auto white_samples = [&](size_t k, std::vector<DiffuseSample>* samples) {
+    const size_t i = posed[k];
+    const Image& img = photos[i].hdr.radiance;
+    for (int ty = 2; ty < tex.image.height - 2; ty += 3)
+      for (int tx = 2; tx < tex.image.width - 2; tx += 3) {
+        bool all_white = true;
+        for (int dy = -2; dy <= 2 && all_white; ++dy)
+          for (int dx = -2; dx <= 2; ++dx) all_white &= tex.image.at(tx + dx, ty + dy, 0) > 0.99f;
+        if (!all_white) continue;
+        const Vec2 b = lin_inv * (Vec2(tx + 0.5, ty + 0.5) - tex.texture_from_board.col(2));
+        const Vec3 X(b.x(), b.y(), 0.0);
+        const Vec3 xc = photos[i].cam_from_world * X;
+        if (xc.z() <= 0) continue;
+        const Vec2 px = camera.Project(xc);
+        const int x = int(px.x()), y = int(px.y());
+        if (x < 1 || y < 1 || x >= img.width - 1 || y >= img.height - 1) continue;
+        if (reg.iou_after.size() && sviews[k].mask.at(x, y, 0) > 0.5f) continue;  // the object hides it
+        bool near_sphere = false;
+        for (const MirrorSphere& s : spheres) near_sphere |= (X - s.centre).norm() < 1.5 * s.radius;
+        if (near_sphere || photos[i].hdr.saturated.at(x, y, 0) > 0) continue;
+        // Normal of the board towards the camera side.
+        const Vec3 eye = photos[i].cam_from_world.CentreInWorld();
+        const Vec3 n = eye.z() > 0 ? Vec3(0, 0, 1) : Vec3(0, 0, -1);
+        double v = 0;
+        for (int c = 0; c < 3; ++c) v += img.at(x, y, c) / 3;
+        samples->push_back({v, 1.0, white, X, n});
+      }
+  };
   std::vector<Light> lights;
   nlohmann::json lights_report = nlohmann::json::array();
   std::map<size_t, int> flash_of_photo;  // photo -> its flash light id
@@ -312,9 +381,28 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       // given offset in the camera frame (metres, x right, y down, z forward).
       const auto off = Field<std::vector<double>>(lj, "offset", Msg(ctx, ": light ", light.id));
       if (off.size() != 3) throw Error(Msg(ctx, ": light ", light.id, ": offset must be [x, y, z] metres"));
-      const double intensity = lj.contains("intensity") ? Field<double>(lj, "intensity", ctx + ": lights[]") : 1.0;
-      for (size_t i : posed) {
-        if (photos[i].light != light.id) continue;
+      // Intensity: given, or from the white paper of every photo it lit
+      // (one flash, the same output in every photo: the median over all).
+      double intensity = lj.contains("intensity") ? Field<double>(lj, "intensity", ctx + ": lights[]") : 0.0;
+      std::vector<size_t> lit;
+      for (size_t k = 0; k < posed.size(); ++k)
+        if (photos[posed[k]].light == light.id) lit.push_back(k);
+      size_t reference_samples = 0;
+      if (!lj.contains("intensity")) {
+        std::vector<double> estimates;
+        for (size_t k : lit) {
+          std::vector<DiffuseSample> samples;
+          white_samples(k, &samples);
+          const Vec3 at = photos[posed[k]].cam_from_world.Inverse() * Vec3(off[0], off[1], off[2]);
+          AppendIntensityEstimates(samples, at, &estimates);
+        }
+        if (estimates.empty())
+          throw Error(Msg(ctx, ": light ", light.id, ": no white board paper seen to measure the flash; give \"intensity\""));
+        reference_samples = estimates.size();
+        intensity = MedianIntensity(estimates);
+      }
+      for (size_t k : lit) {
+        const size_t i = posed[k];
         Light f;
         f.id = 1000000 + int(i);  // ids of per-photo flashes; the photo is renumbered to it below
         f.type = LightType::kPoint;
@@ -323,64 +411,45 @@ nlohmann::json RunCapture(const CaptureJob& job) {
         flash_of_photo[i] = f.id;
         lights.push_back(f);
         lights_report.push_back({{"id", f.id}, {"flash_of_photo", i},
-                                 {"position", {f.position.x(), f.position.y(), f.position.z()}}, {"intensity", intensity}});
+                                 {"position", {f.position.x(), f.position.y(), f.position.z()}}, {"intensity", intensity},
+                                 {"intensity_measured", !lj.contains("intensity")}, {"reference_samples", reference_samples}});
       }
       continue;
     }
     if (kind != "point")
       throw Error(Msg(ctx, ": light ", light.id, ": type must be \"point\" (calibrated by mirror balls) or \"flash\""));
     std::vector<Ray3> rays;
+    std::vector<HighlightObservation> highlights;
     for (size_t i : posed) {
       if (photos[i].light != light.id) continue;
-      for (const MirrorSphere& s : spheres) {
+      for (size_t s = 0; s < spheres.size(); ++s) {
         Vec2 px;
         Ray3 ray;
-        if (FindHighlight(photos[i].hdr.radiance, camera, photos[i].cam_from_world, s, &px) &&
-            ReflectedRay(camera, photos[i].cam_from_world, s, px, &ray))
+        if (FindHighlight(photos[i].hdr.radiance, camera, photos[i].cam_from_world, spheres[s], &px) &&
+            ReflectedRay(camera, photos[i].cam_from_world, spheres[s], px, &ray)) {
           rays.push_back(ray);
+          highlights.push_back({&camera, photos[i].cam_from_world, int(s), px});
+        }
       }
     }
     if (rays.size() < 2) throw Error(Msg("capture: light ", light.id, ": only ", rays.size(), " mirror-sphere highlights found; need 2"));
+    // Rays intersected in 3-D for a start, then refined in the images.
     double ray_rms = 0;
-    light.position = NearestPointToRays(rays, &ray_rms);
-    // Intensity: board points on white paper (texture value 1 around them), in photos of this light.
+    const Vec3 from_rays = NearestPointToRays(rays, &ray_rms);
+    const LampRefineResult refined = RefineLampPosition(highlights, spheres, from_rays, LampRefineOptions{});
+    light.position = refined.position;
+    // Intensity from the board's white paper in the photos of this light.
     std::vector<DiffuseSample> samples;
-    const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
-    for (size_t k = 0; k < posed.size(); ++k) {
-      const size_t i = posed[k];
-      if (photos[i].light != light.id) continue;
-      const Image& img = photos[i].hdr.radiance;
-      for (int ty = 2; ty < tex.image.height - 2; ty += 3)
-        for (int tx = 2; tx < tex.image.width - 2; tx += 3) {
-          bool all_white = true;
-          for (int dy = -2; dy <= 2 && all_white; ++dy)
-            for (int dx = -2; dx <= 2; ++dx) all_white &= tex.image.at(tx + dx, ty + dy, 0) > 0.99f;
-          if (!all_white) continue;
-          const Vec2 b = lin_inv * (Vec2(tx + 0.5, ty + 0.5) - tex.texture_from_board.col(2));
-          const Vec3 X(b.x(), b.y(), 0.0);
-          const Vec3 xc = photos[i].cam_from_world * X;
-          if (xc.z() <= 0) continue;
-          const Vec2 px = camera.Project(xc);
-          const int x = int(px.x()), y = int(px.y());
-          if (x < 1 || y < 1 || x >= img.width - 1 || y >= img.height - 1) continue;
-          if (reg.iou_after.size() && sviews[k].mask.at(x, y, 0) > 0.5f) continue;  // the object hides it
-          bool near_sphere = false;
-          for (const MirrorSphere& s : spheres) near_sphere |= (X - s.centre).norm() < 1.5 * s.radius;
-          if (near_sphere || photos[i].hdr.saturated.at(x, y, 0) > 0) continue;
-          // Normal of the board towards the camera side.
-          const Vec3 eye = photos[i].cam_from_world.CentreInWorld();
-          const Vec3 n = eye.z() > 0 ? Vec3(0, 0, 1) : Vec3(0, 0, -1);
-          double v = 0;
-          for (int c = 0; c < 3; ++c) v += img.at(x, y, c) / 3;
-          samples.push_back({v, 1.0, white, X, n});
-        }
-    }
+    for (size_t k = 0; k < posed.size(); ++k)
+      if (photos[posed[k]].light == light.id) white_samples(k, &samples);
     const double I = IntensityFromDiffuse(samples, light.position);
     light.type = LightType::kPoint;
     light.intensity = Rgb::Constant(I);
     lights.push_back(light);
     lights_report.push_back({{"id", light.id}, {"position", {light.position.x(), light.position.y(), light.position.z()}},
-                             {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms}, {"intensity", I},
+                             {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms},
+                             {"position_from_rays", {from_rays.x(), from_rays.y(), from_rays.z()}},
+                             {"highlight_rms_px", {refined.initial_rms_px, refined.rms_px}}, {"intensity", I},
                              {"reference_samples", samples.size()}});
   }
   (void)black;

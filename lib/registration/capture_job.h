@@ -2,8 +2,9 @@
 // what the user knows to a contract capture (scene.json) that `reconstruct`
 // reads. Stages: intrinsics (calib), HDR merge of brackets with saturation
 // masks, board detection + PnP + bundle adjustment (poses), silhouette
-// registration of the scanned mesh, lamp positions from mirror spheres and
-// intensities from the board's known albedo. Each stage's errors go into
+// registration of the scanned mesh, lamp positions from mirror spheres
+// (rays intersected, then refined in the images) and intensities from the
+// board's known albedo. Each stage's errors go into
 // OUT/report/capture_report.json.
 //
 // Description file (JSON, "format": "svbrdf-capture-description/1"), paths
@@ -16,7 +17,11 @@
 //         placement in the board frame (world = board frame, metres)
 //   masks: "given" (each photo's "mask") or "grabcut" (seeded by the projected mesh)
 //   mirror_spheres: {radius, centres: [[x, y, z], ...]}  in the board frame
-//   lights: [{id, type: "point"}]
+//   lights: [{id, type: "point"}] or [{id, type: "flash", offset: [x, y, z], intensity}]
+//           (a flash's intensity, when left out, is measured on the board's white paper)
+//   poses: "board" | "colmap";  known_distance: {images: [a, b] | point_ids: [i, j] |
+//          points: [[x, y, z], [x, y, z]], metres}  scales the COLMAP model when
+//          fewer than 3 photos show the board (else reported as a check)
 //   photos: [{files: [brackets], exposures: [relative], light: id, mask: file}]
 #pragma once
 #include <nlohmann/json.hpp>

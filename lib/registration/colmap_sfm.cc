@@ -135,4 +135,25 @@ ColmapToBoard ScaleColmapByDistance(const ColmapModel& model, const std::string&
   return r;
 }
 
+ColmapToBoard ScaleColmapByKnownDistance(const ColmapModel& model, const KnownDistance& k) {
+  if (!(k.metres > 0)) throw Error("colmap: the known distance must be > 0 metres");
+  if (!k.image_a.empty() || !k.image_b.empty()) return ScaleColmapByDistance(model, k.image_a, k.image_b, k.metres);
+  Vec3 a, b;
+  if (k.point_a >= 0 || k.point_b >= 0) {
+    for (long id : {k.point_a, k.point_b})
+      if (!model.points.count(id)) throw Error(Msg("colmap: 3-D point ", id, " of the known distance is not in the model"));
+    a = model.points.at(k.point_a).xyz, b = model.points.at(k.point_b).xyz;
+  } else if (k.points.size() == 2) {
+    a = k.points[0], b = k.points[1];
+  } else {
+    throw Error("colmap: a known distance needs two images, two point ids or two points");
+  }
+  const double d = (a - b).norm();
+  if (!(d > 0)) throw Error("colmap: the two points of the known distance coincide; cannot scale");
+  ColmapToBoard r;
+  r.scale = k.metres / d;
+  r.matched = 0;
+  return r;
+}
+
 }  // namespace svbrdf

@@ -53,4 +53,18 @@ ColmapToBoard AlignColmapToBoard(const ColmapModel& model, const std::map<std::s
 // `a` and `b` are `metres` apart.
 ColmapToBoard ScaleColmapByDistance(const ColmapModel& model, const std::string& a, const std::string& b, double metres);
 
+// A distance the user measured, one of three kinds (capture.json's
+// "known_distance"): between the centres of two photos ("images"), two
+// 3-D points of the model by their points3D.txt ids ("point_ids"), or two
+// points given in the model's own coordinates ("points", e.g. picked in
+// COLMAP's GUI).
+struct KnownDistance {
+  std::string image_a, image_b;
+  long point_a = -1, point_b = -1;
+  std::vector<Vec3> points;  // 2, model coordinates
+  double metres = 0;
+};
+// Scale only, from a known distance; throws Error naming what is missing.
+ColmapToBoard ScaleColmapByKnownDistance(const ColmapModel& model, const KnownDistance& known);
+
 }  // namespace svbrdf

@@ -28,6 +28,7 @@ void RawPhotoOptions::Check() const {
   if (distortion.size() != 4) throw Error("raw photos: distortion needs k1 k2 p1 p2");
   if (!(object_radius > 0 && distance > 3 * object_radius && sphere_radius > 0 && lamp_radius > 0))
     throw Error("raw photos: sizes must be > 0 and the camera outside the object");
+  if (!flash_offset.empty() && flash_offset.size() != 3) throw Error("raw photos: flash_offset must be [x, y, z] metres");
   if (num_lamps < 1 || brackets < 1 || bracket_stops < 0 || spp < 1 || spp > 8)
     throw Error("raw photos: num_lamps, brackets >= 1, spp in [1, 8]");
   if (format != "png16" && format != "png8" && format != "exr")
@@ -160,7 +161,6 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
     w.lamps.push_back(board_centre + w.up * (0.45 + 0.25 * u01(rng)) +
                       (0.2 + 0.25 * u01(rng)) * (std::cos(az) * ex + std::sin(az) * ey));
   }
-  truth.lamps = w.lamps;
 
   Camera cam;
   cam.id = 1;
@@ -172,11 +172,12 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
                 o.distortion[2], o.distortion[3]};
   truth.camera = cam;
 
+  const bool flash = !o.flash_offset.empty();
   auto make_scene = [&](int count, double az_offset, bool heldout, Rng& r) {
     Scene s;
     s.mesh = heldout ? "../gt/mesh.obj" : "gt/mesh.obj";
     s.cameras = {cam};
-    for (int l = 0; l < o.num_lamps; ++l) {
+    for (int l = 0; l < (flash ? 0 : o.num_lamps); ++l) {
       Light light;
       light.id = l + 1;
       light.type = LightType::kPoint;
@@ -198,6 +199,16 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
       e.camera = 1;
       e.light = heldout ? 1 + int(u01(r) * o.num_lamps) % o.num_lamps : 1 + i % o.num_lamps;
       e.cam_from_world = Rigid3::LookAt(w.object_centre + o.distance * dir, target, w.up);
+      if (flash) {  // a flash of its own for every photo, at the offset in the camera frame
+        Light light;
+        light.type = LightType::kPoint;
+        light.position = e.cam_from_world.Inverse() * Vec3(o.flash_offset[0], o.flash_offset[1], o.flash_offset[2]);
+        light.intensity = Rgb::Constant(o.lamp_intensity);
+        w.lamps.push_back(light.position);
+        light.id = int(w.lamps.size());
+        e.light = light.id;
+        s.lights.push_back(light);
+      }
       s.images.push_back(e);
     }
     return s;
@@ -205,6 +216,7 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
   Scene scene = make_scene(o.num_images, 0.0, false, rng);
   Rng hrng(StreamSeed(o.seed, 0x4e1d));
   Scene held = make_scene(o.num_heldout, 0.5, true, hrng);
+  truth.lamps = w.lamps;  // with the flashes of every photo
   scene.dir = (tmp / "truth").string();
   held.dir = (tmp / "truth" / "heldout").string();
 
@@ -293,7 +305,7 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
       const Vec3 dir = std::cos(el) * (std::cos(az) * ex + std::sin(az) * ey) + std::sin(el) * w.up;
       ImageEntry e;
       e.camera = 1;
-      e.light = 1 + i % o.num_lamps;
+      e.light = flash ? 1 : 1 + i % o.num_lamps;
       e.cam_from_world = Rigid3::LookAt(target + (0.45 + 0.3 * u01(crng)) * dir, target, w.up);
       // Rolls all round: tilts about different image axes separate the principal
       // point from the pose (tilting about one axis only leaves it ill-posed).
@@ -327,7 +339,7 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
       files.push_back(name);
       exposures.push_back(exposure);
     }
-    photos.push_back({{"files", files}, {"exposures", exposures}, {"light", e.light}, {"mask", e.mask}});
+    photos.push_back({{"files", files}, {"exposures", exposures}, {"light", flash ? 1 : e.light}, {"mask", e.mask}});
     truth.cam_from_world.push_back(e.cam_from_world);
     truth.photo_lamp.push_back(e.light - 1);
   }
@@ -346,7 +358,8 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
   rough.translation += RandomUnit(rng) * o.init_error_mm * 1e-3;
   nlohmann::json spheres = nlohmann::json::array(), lamps = nlohmann::json::array();
   for (const Vec3& c : w.spheres) spheres.push_back({c.x(), c.y(), c.z()});
-  for (int l = 0; l < o.num_lamps; ++l) lamps.push_back({{"id", l + 1}, {"type", "point"}});
+  for (int l = 0; l < (flash ? 0 : o.num_lamps); ++l) lamps.push_back({{"id", l + 1}, {"type", "point"}});
+  if (flash) lamps.push_back({{"id", 1}, {"type", "flash"}, {"offset", o.flash_offset}});  // intensity left to capture
   nlohmann::json board = o.board_json;
   board["white_albedo"] = o.white_albedo;
   board["black_albedo"] = o.black_albedo;

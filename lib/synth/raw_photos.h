@@ -51,6 +51,9 @@ namespace svbrdf {
 //   elevation_min/max_deg  camera ring elevations above the board
 //   num_lamps          point lamps, photo i uses lamp i % num_lamps
 //   lamp_intensity     W/sr; lamp_radius: glowing globe seen in the mirrors, metres
+//   flash_offset       empty: the lamps; [x, y, z]: instead a flash at this offset
+//                      in the camera frame (metres) lights every photo
+//                      (capture.json: a "flash" light without intensity)
 //   sphere_radius      mirror spheres, metres; mirror_reflectance in (0, 1]
 //   brackets, bracket_stops   exposures per photo and their spacing (stops);
 //                      bracket k has exposure 2^(-k*stops)
@@ -76,6 +79,7 @@ struct RawPhotoOptions {
   double elevation_min_deg = 35, elevation_max_deg = 65;
   int num_lamps = 4;
   double lamp_intensity = 1.0, lamp_radius = 0.05;
+  std::vector<double> flash_offset;
   double sphere_radius = 0.04, mirror_reflectance = 0.8;
   int brackets = 3;
   double bracket_stops = 4;
