@@ -21,6 +21,10 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: min signal fraction must be in [0, 1], got ", min_signal_fraction));
   if (!(texel_footprint > 0 && texel_footprint <= 1000))
     throw Error(Msg("gather: texel footprint must be in (0, 1000] pixels, got ", texel_footprint));
+  if (footprint_rays < 0 || footprint_rays > 8)
+    throw Error(Msg("gather: footprint rays must be in [0, 8] per pixel side, got ", footprint_rays));
+  if (!(max_foreign_share >= 0 && max_foreign_share <= 1))
+    throw Error(Msg("gather: max foreign share must be in [0, 1], got ", max_foreign_share));
   if (max_atlas_size < 16 || max_atlas_size > 16384)
     throw Error(Msg("gather: max atlas size must be in [16, 16384], got ", max_atlas_size));
 }
@@ -28,7 +32,7 @@ void GatherOptions::Check() const {
 std::string GatherStats::Report(bool with_warnings) const {
   std::ostringstream os;
   os << "samples kept " << kept << " of " << candidates << " texel-views (" << texels << " texels); rejected: "
-     << outside_image << " outside image, " << back_facing << " back-facing/grazing view, " << occluded
+     << border_texel << " on chart-border texels, " << outside_image << " outside image, " << back_facing << " back-facing/grazing view, " << occluded
      << " occluded, " << outside_mask << " outside mask, " << unlit << " unlit/grazing light, " << shadowed
      << " shadowed, " << saturated << " saturated, " << invalid << " non-finite/negative pixel";
   if (with_warnings)
@@ -38,13 +42,48 @@ std::string GatherStats::Report(bool with_warnings) const {
 
 namespace {
 
-enum Reason : uint8_t { kKept, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid };
+enum Reason : uint8_t { kKept, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid };
 
 struct Record {
   uint8_t reason = kOutsideImage;
   bool signal = false;  // a channel above the noise floor
   float wi[3], wo[3], geom, y[3];
 };
+
+// The mean shading normal seen by the bilinear lookup at continuous pixel
+// (px, py): n x n stratified rays through each of its four pixels, weighted
+// by the lookup's weights. Rays that miss, or hit farther than `tolerance`
+// from x (another surface in front or behind: an occluding edge), count as
+// foreign. Returns false when their share exceeds max_foreign_share;
+// otherwise *mean is the (unnormalised) weighted mean of the others.
+bool FootprintNormal(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
+                     const Vec3& x, double tolerance, double px, double py, int n, double max_foreign_share,
+                     Vec3* mean) {
+  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
+  const int x0 = static_cast<int>(std::floor(px - 0.5)), y0 = static_cast<int>(std::floor(py - 0.5));
+  Vec3 sum = Vec3::Zero();
+  double foreign = 0, total = 0;
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) / (n * n);
+      if (w <= 0) continue;
+      for (int sy = 0; sy < n; ++sy)
+        for (int sx = 0; sx < n; ++sx) {
+          total += w;
+          const Vec2 p(x0 + dx + (sx + 0.5) / n, y0 + dy + (sy + 0.5) / n);
+          Hit h;
+          if (!tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h) ||
+              (tracer.Position(h) - x).norm() > tolerance) {
+            foreign += w;
+            continue;
+          }
+          sum += w * tracer.ShadingNormal(h);
+        }
+    }
+  if (!(total > 0) || foreign > max_foreign_share * total) return false;
+  *mean = sum / (total - foreign);
+  return mean->norm() > 1e-6;
+}
 
 }  // namespace
 
@@ -99,6 +138,9 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   if (nt == 0) throw Error(Msg(scene.mesh, ": texture coordinates cover no texel of a ", size, "^2 atlas"));
   RayTracer tracer(out.mesh);
   const double eps = 1e-4;  // ray offset (metres)
+  // See GatherOptions::border_texel_samples.
+  const bool no_border = out.made_uvs && !options.border_texel_samples;
+  const int footprint_rays = options.footprint_rays;
 
   // Kept samples per image (texel, record); one full-size scratch buffer is
   // reused across images, so memory grows with kept samples, not texels x views.
@@ -130,6 +172,14 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     ParallelFor(nt, options.threads, [&](long t) {
       const Texel& tx = atlas.texels[t];
       Record& r = recs[t];
+      if (no_border && !tx.interior) {
+        // Distance (texels) from the texel centre to the clamped point it measures.
+        const Vec3i& fu = out.mesh.face_uvs[tx.prim];
+        const Vec2 uv = (1 - tx.b1 - tx.b2) * out.mesh.texcoords[fu[0]] + tx.b1 * out.mesh.texcoords[fu[1]] +
+                        tx.b2 * out.mesh.texcoords[fu[2]];
+        const Vec2 offset = UvToTexel(uv, atlas.width, atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5);
+        if (offset.norm() > options.border_texel_max_offset) return void(r.reason = kBorderTexel);
+      }
       const Vec3 x = tx.position, n = tx.normal;
       const Vec3 xc = e.cam_from_world * x;
       if (xc.z() <= 1e-9) return void(r.reason = kOutsideImage);
@@ -148,7 +198,23 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
           for (int dx = 0; dx < 2; ++dx)
             if (!(mask.at(x0 + dx, y0 + dy, 0) > 0)) return void(r.reason = kOutsideMask);  // NaN: outside
       }
+      // The normal the pixel value belongs to (see GatherOptions::footprint_rays).
+      Vec3 ns = n;
+      double foreshortening = 1.0;
+      if (footprint_rays > 0) {
+        // A pixel spans dist / f metres head-on, dist / (f cos) along the surface;
+        // the lookup reaches a pixel away: anything within 3 such lengths is this patch.
+        const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
+        Vec3 mean;
+        if (!FootprintNormal(tracer, cam, world_from_cam, eye, x, tolerance, px.x(), px.y(), footprint_rays,
+                             options.max_foreign_share, &mean))
+          return void(r.reason = kOccluded);
+        foreshortening = std::min(1.0, mean.norm());
+        ns = mean.normalized();
+        if (ns.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
+      }
       const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
+      if (ns.dot(ls.wi) < options.min_cos) return void(r.reason = kUnlit);
       const double cos_i = n.dot(ls.wi);
       if (cos_i < options.min_cos || !(ls.normal_irradiance > 0).all()) return void(r.reason = kUnlit);
       if (tracer.Occluded(x + n * eps, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * eps))
@@ -160,7 +226,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
             if (!(v >= 0) || !std::isfinite(v)) return void(r.reason = kInvalid);
             if (v >= img.saturation_level) return void(r.reason = kSaturated);
           }
-      const Frame frame = Frame::FromNormalTangent(n, tx.tangent);
+      const Frame frame = Frame::FromNormalTangent(ns, tx.tangent);
       const Vec3 wi = frame.ToLocal(ls.wi), wo = frame.ToLocal(to_eye);
       // Measurement model (samples.h): value_c / exposure = f_c * cos_i * E_c;
       // with s = mean_c E_c: y_c = value_c / exposure * s / E_c, geom = cos_i * s.
@@ -171,7 +237,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         r.wi[c] = static_cast<float>(wi[c]);
         r.wo[c] = static_cast<float>(wo[c]);
       }
-      r.geom = static_cast<float>(cos_i * s);
+      r.geom = static_cast<float>(ns.dot(ls.wi) * foreshortening * s);
       // A finite pixel can still give a non-finite sample (extreme light or
       // exposure values); no fit may ever see one.
       if (!std::isfinite(r.geom) || !(r.geom > 0) || !std::isfinite(r.y[0]) || !std::isfinite(r.y[1]) ||
@@ -189,6 +255,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       ++st.candidates;
       switch (r.reason) {
         case kKept: ++kept; signal += r.signal; per_image[i].emplace_back(static_cast<int32_t>(t), r); break;
+        case kBorderTexel: ++st.border_texel; break;
         case kOutsideImage: ++st.outside_image; break;
         case kBackFacing: ++st.back_facing; break;
         case kOccluded: ++st.occluded; break;

@@ -35,6 +35,40 @@ struct GatherOptions {
   double texel_footprint = 2.0;
   int max_atlas_size = 1024;
   double min_cos = 0.15;        // grazing limit for view and light directions (cos of the angle)
+  // Footprint normals: a pixel integrates the surface over its footprint, so
+  // where the normal turns within a pixel (scanned meshes: ~5 deg per pixel
+  // at the median, 20 deg at the 90th percentile on the bunny scan) the
+  // texel-centre normal does not describe the measured value. Each sample's
+  // frame then uses the mean shading normal of n x n rays per pixel of the
+  // bilinear lookup (weighted like the lookup); its length < 1 (the cosine
+  // of a spread of normals averages to a shorter normal) scales `geom`. Up
+  // to `max_foreign_share` of the lookup may see another surface (an
+  // occluding edge) or miss; beyond that the sample is rejected as
+  // occluded. 0 = off (the texel-centre normal). Off by default: it assumes
+  // the camera integrates each pixel (real cameras, Mitsuba's box filter);
+  // on photos rendered at the pixel centre (this project's synth at spp 1)
+  // it cost 3.3 dB on the bunny-scan regression, and on the Mitsuba bunny
+  // it gained only 0.1 dB (median sample error vs truth 1.6 % -> 0.9 %).
+  int footprint_rays = 0;
+  double max_foreign_share = 0.25;
+  // Generated chart atlases (meshes without UVs): texels outside every UV
+  // triangle (the dilation ring around each chart, and texels claimed by
+  // triangles smaller than a texel) measure a point clamped onto a chart
+  // border, not the surface under the texel. On the bunny scan they are half
+  // of the texels and carried 76 % of the squared disagreement between the
+  // gathered samples and the true material (Mitsuba capture, see
+  // bench_results/independent.md); without any of their samples the held-out
+  // error of the 3-cluster state fell from 0.071 to 0.048. Their weights then
+  // come from the neighbour fill (cluster/confidence.cc). true = sample them
+  // too: the default, because on the tiny no-UV sphere of
+  // e2e_reconstruct_test the rule below cost 1.7 dB (43.6 vs 45.3 dB).
+  bool border_texel_samples = true;
+  // ... except those whose clamped point lies within this many texels of the
+  // texel centre (they still measure the surface under the texel). 0.5: the
+  // small synthetic bunny of e2e_reconstruct_test (70 % border texels) keeps
+  // 36.3 dB without UVs (0 here: 32.5 dB, UV twin 37.1); the Mitsuba bunny
+  // 32.65 dB, 5 materials for 3 (0 here: 32.5 dB, 3 materials).
+  double border_texel_max_offset = 0.5;
   // Pixel value (integer files normalised to [0, 1]; float files as stored,
   // 1 = a well exposed white) below which a sample carries no signal.
   double noise_floor = 2.0 / 255;
@@ -47,6 +81,7 @@ struct GatherOptions {
 
 struct GatherStats {
   long texels = 0, candidates = 0, kept = 0;
+  long border_texel = 0;  // candidates on texels outside every UV triangle (GatherOptions::border_texel_samples)
   long outside_image = 0, back_facing = 0, occluded = 0, outside_mask = 0, unlit = 0, shadowed = 0,
        saturated = 0, invalid = 0;
   long signal = 0;  // kept samples with a channel above the noise floor

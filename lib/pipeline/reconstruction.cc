@@ -197,6 +197,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["made_uvs"] = g.made_uvs;
   summary["samples"] = {{"kept", g.stats.kept},          {"candidates", g.stats.candidates},
                         {"outside_image", g.stats.outside_image}, {"back_facing", g.stats.back_facing},
+                        {"border_texel", g.stats.border_texel},
                         {"occluded", g.stats.occluded},  {"outside_mask", g.stats.outside_mask},
                         {"unlit", g.stats.unlit},        {"shadowed", g.stats.shadowed},
                         {"saturated", g.stats.saturated}, {"invalid_pixel", g.stats.invalid}};

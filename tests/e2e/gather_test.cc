@@ -3,7 +3,10 @@
 // synth/relight and gather.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "core/error.h"
 #include "gather/gather.h"
@@ -47,6 +50,119 @@ TEST(Gather, SamplesMatchGroundTruthBrdf) {
   std::printf("gathered vs ground truth: relative RMSE %.4f over %ld samples (%s)\n", rel, long(g.samples.size()),
               g.stats.Report().c_str());
   EXPECT_LT(rel, 0.02);
+  fs::remove_all(dir);
+}
+
+// Median relative disagreement of the gathered samples of interior texels
+// with the ground-truth BRDF (mean over channels).
+double MedianRelativeError(const GatherResult& g, const Material& gt) {
+  MaterialShader shader(gt);
+  std::vector<double> rel;
+  for (int64_t i = 0; i < g.samples.size(); ++i) {
+    const Texel& tx = g.atlas.texels[g.samples.texel[i]];
+    if (!tx.interior) continue;
+    const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
+    const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
+    const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
+    const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
+    const Rgb pred = shader.Eval(uv, f, f.ToWorld(wi), f.ToWorld(wo)) * g.samples.geom[i];
+    const double y = (g.samples.y[0][i] + g.samples.y[1][i] + g.samples.y[2][i]) / 3;
+    if (y > 1e-3) rel.push_back(std::abs((pred[0] + pred[1] + pred[2]) / 3 - y) / y);
+  }
+  if (rel.empty()) return 1e9;
+  std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+  return rel[rel.size() / 2];
+}
+
+// A scan-like surface whose normal turns within a pixel (a sphere with
+// bumps of ~4 pixels' wavelength, rendered with 4x4 samples per pixel as a
+// camera integrates them): the samples' frames from the footprint's mean
+// normal must describe the measured values better than the texel-centre
+// normal.
+TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_bumps_" + std::to_string(getpid()))).string();
+  fs::create_directories(dir);
+  {
+    // Lat-long sphere of radius 0.5 with UVs; radius modulated by bumps of
+    // wavelength ~46 mm (tiny preset: ~11.5 mm per pixel) and slope ~20 deg.
+    const int nu = 340, nv = 170;
+    const double amp = 0.0015, ku = 68, kv = 34;
+    std::string obj;
+    for (int i = 0; i <= nv; ++i)
+      for (int j = 0; j <= nu; ++j) {
+        const double th = M_PI * i / nv, ph = 2 * M_PI * j / nu;
+        const double r = 0.5 + amp * std::sin(kv * th) * std::sin(ku * ph);
+        obj += Msg("v ", r * std::sin(th) * std::cos(ph), " ", r * std::cos(th), " ", -r * std::sin(th) * std::sin(ph), "\n");
+        obj += Msg("vt ", double(j) / nu, " ", 1.0 - double(i) / nv, "\n");
+      }
+    const int w = nu + 1;
+    for (int i = 0; i < nv; ++i)
+      for (int j = 0; j < nu; ++j) {
+        const int a = i * w + j + 1, b = a + 1, c = a + w, d = c + 1;
+        if (i > 0) obj += Msg("f ", a, "/", a, " ", c, "/", c, " ", b, "/", b, "\n");
+        if (i < nv - 1) obj += Msg("f ", b, "/", b, " ", c, "/", c, " ", d, "/", d, "\n");
+      }
+    std::ofstream(dir + "/bumpy.obj") << obj;
+  }
+  SynthOptions o = SynthPreset("tiny");
+  o.mesh_file = dir + "/bumpy.obj";
+  o.noise = 0;
+  o.spp = 4;
+  o.num_images = 8;
+  o.num_heldout = 0;
+  Synthesize(o, dir + "/cap");
+  const Scene scene = LoadScene(dir + "/cap/scene.json");
+  const Material gt = LoadMaterial(dir + "/cap/gt");
+  GatherOptions go;
+  go.texture_size = o.material.texture_size;
+  go.progress = false;
+  go.footprint_rays = 0;
+  const double centre = MedianRelativeError(Gather(scene, go), gt);
+  go.footprint_rays = 2;
+  const double footprint = MedianRelativeError(Gather(scene, go), gt);
+  std::printf("median relative sample error: texel-centre normal %.4f, footprint normal %.4f\n", centre, footprint);
+  EXPECT_LT(footprint, 0.7 * centre);
+  fs::remove_all(dir);
+}
+
+// Meshes without UVs get a chart atlas; texels outside every UV triangle
+// (dilation rings, texels claimed by sub-texel triangles) whose measured
+// point is clamped more than half a texel away take no samples.
+TEST(Gather, ChartAtlasBorderTexelsTakeNoSamples) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_noUV_" + std::to_string(getpid()))).string();
+  SynthOptions o = SynthPreset("tiny");
+  o.mesh_uvs = false;
+  o.num_images = 6;
+  o.num_heldout = 0;
+  Synthesize(o, dir);
+  const Scene scene = LoadScene(dir + "/scene.json");
+  GatherOptions go;
+  go.progress = false;
+  go.footprint_rays = 0;
+  go.border_texel_samples = false;
+  // Samples on texels outside every UV triangle whose measured (clamped)
+  // point lies farther than half a texel from the texel centre.
+  auto border_samples = [](const GatherResult& g) {
+    long n = 0;
+    for (int64_t i = 0; i < g.samples.size(); ++i) {
+      const Texel& tx = g.atlas.texels[g.samples.texel[i]];
+      if (tx.interior) continue;
+      const Vec3i& fu = g.mesh.face_uvs[tx.prim];
+      const Vec2 uv = (1 - tx.b1 - tx.b2) * g.mesh.texcoords[fu[0]] + tx.b1 * g.mesh.texcoords[fu[1]] +
+                      tx.b2 * g.mesh.texcoords[fu[2]];
+      n += (UvToTexel(uv, g.atlas.width, g.atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5)).norm() > 0.5;
+    }
+    return n;
+  };
+  const GatherResult g = Gather(scene, go);
+  ASSERT_TRUE(g.made_uvs);
+  EXPECT_GT(g.samples.size(), 1000);
+  EXPECT_GT(g.stats.border_texel, 0);
+  EXPECT_EQ(border_samples(g), 0);
+  go.border_texel_samples = true;  // the old behaviour samples them
+  const GatherResult all = Gather(scene, go);
+  EXPECT_EQ(all.stats.border_texel, 0);
+  EXPECT_GT(border_samples(all), 0);
   fs::remove_all(dir);
 }
 
