@@ -40,6 +40,18 @@ double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return Eigen::AngleAxisd(a * b.conjugate()).angle() * 180 / kPi;
 }
 
+// Raw-photo options with the suite's ChArUco board drawn into the scene.
+RawPhotoOptions RawOptionsWithBoard() {
+  RawPhotoOptions o;
+  const BoardSpec board = DefaultRawBoard();
+  const BoardTexture tex = DrawBoard(board, 48);
+  o.board_texture = tex.image;
+  o.texture_from_board = tex.texture_from_board;
+  o.board_json = {{"pattern", "charuco"}, {"cols", board.cols}, {"rows", board.rows},
+                  {"square", board.square}, {"marker", board.marker}};
+  return o;
+}
+
 // One raw set shared by all tests of the suite: rendered once per process
 // (tests/CMakeLists.txt runs this binary as one ctest test) in a temporary
 // folder that TearDownTestSuite removes.
@@ -59,13 +71,7 @@ class Registration : public ::testing::Test {
     std::string tmpl = (fs::temp_directory_path() / "svbrdf_raw_XXXXXX").string();
     if (!mkdtemp(tmpl.data())) throw Error("registration_test: cannot create a temporary folder");
     raw_->dir = tmpl + "/raw";
-    RawPhotoOptions o;
-    const BoardSpec board = DefaultRawBoard();
-    const BoardTexture tex = DrawBoard(board, 48);
-    o.board_texture = tex.image;
-    o.texture_from_board = tex.texture_from_board;
-    o.board_json = {{"pattern", "charuco"}, {"cols", board.cols}, {"rows", board.rows},
-                    {"square", board.square}, {"marker", board.marker}};
+    RawPhotoOptions o = RawOptionsWithBoard();
     o.num_images = 12;
     o.num_heldout = 2;
     o.num_lamps = 3;
@@ -475,13 +481,7 @@ TEST_F(Registration, FlashLightsFollowTheCamera) {
 // A small flash-lit raw set (4 photos, camera known, no held-out views) in
 // TMPL/raw, run through `capture` into TMPL/capture; returns the report.
 nlohmann::json FlashRawSetThroughCapture(const std::string& tmpl, const std::string& format) {
-  RawPhotoOptions o;
-  const BoardSpec board = DefaultRawBoard();
-  const BoardTexture tex = DrawBoard(board, 48);
-  o.board_texture = tex.image;
-  o.texture_from_board = tex.texture_from_board;
-  o.board_json = {{"pattern", "charuco"}, {"cols", board.cols}, {"rows", board.rows},
-                  {"square", board.square}, {"marker", board.marker}};
+  RawPhotoOptions o = RawOptionsWithBoard();
   o.num_images = 4;
   o.num_heldout = 0;
   o.num_calibration = 0;
@@ -578,13 +578,7 @@ TEST(RegistrationColmap, ColmapPosesPlacedAndScaled) {
   if (!ColmapInstalled()) GTEST_SKIP() << "the colmap CLI is not installed (scripts/setup.sh installs it)";
   std::string tmpl = (fs::temp_directory_path() / "svbrdf_colmap_test_XXXXXX").string();
   ASSERT_TRUE(mkdtemp(tmpl.data()));
-  RawPhotoOptions o;
-  const BoardSpec board = DefaultRawBoard();
-  const BoardTexture tex = DrawBoard(board, 48);
-  o.board_texture = tex.image;
-  o.texture_from_board = tex.texture_from_board;
-  o.board_json = {{"pattern", "charuco"}, {"cols", board.cols}, {"rows", board.rows},
-                  {"square", board.square}, {"marker", board.marker}};
+  RawPhotoOptions o = RawOptionsWithBoard();
   o.num_images = 8;
   o.num_heldout = 0;
   o.num_calibration = 0;

@@ -18,6 +18,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// What the ground-truth material predicts for gathered sample i (its texel's
+// centre, frame and the sample's directions and geometry factor).
+Rgb TruthPrediction(const GatherResult& g, const MaterialShader& shader, int64_t i) {
+  const Texel& tx = g.atlas.texels[g.samples.texel[i]];
+  const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
+  const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
+  const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
+  const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
+  return shader.Eval(uv, f, f.ToWorld(wi), f.ToWorld(wo)) * g.samples.geom[i];
+}
+
 TEST(Gather, SamplesMatchGroundTruthBrdf) {
   const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_" + std::to_string(getpid()))).string();
   SynthOptions o = SynthPreset("tiny");
@@ -36,11 +47,7 @@ TEST(Gather, SamplesMatchGroundTruthBrdf) {
   for (int64_t i = 0; i < g.samples.size(); ++i) {
     const Texel& tx = g.atlas.texels[g.samples.texel[i]];
     if (!tx.interior) continue;
-    const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
-    const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
-    const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
-    const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
-    const Rgb pred = shader.Eval(uv, f, f.ToWorld(wi), f.ToWorld(wo)) * g.samples.geom[i];
+    const Rgb pred = TruthPrediction(g, shader, i);
     for (int c = 0; c < 3; ++c) {
       se += (pred[c] - g.samples.y[c][i]) * (pred[c] - g.samples.y[c][i]);
       sy += g.samples.y[c][i] * g.samples.y[c][i];
@@ -61,11 +68,7 @@ double MedianRelativeError(const GatherResult& g, const Material& gt) {
   for (int64_t i = 0; i < g.samples.size(); ++i) {
     const Texel& tx = g.atlas.texels[g.samples.texel[i]];
     if (!tx.interior) continue;
-    const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
-    const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
-    const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
-    const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
-    const Rgb pred = shader.Eval(uv, f, f.ToWorld(wi), f.ToWorld(wo)) * g.samples.geom[i];
+    const Rgb pred = TruthPrediction(g, shader, i);
     const double y = (g.samples.y[0][i] + g.samples.y[1][i] + g.samples.y[2][i]) / 3;
     if (y > 1e-3) rel.push_back(std::abs((pred[0] + pred[1] + pred[2]) / 3 - y) / y);
   }
