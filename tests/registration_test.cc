@@ -52,6 +52,20 @@ RawPhotoOptions RawOptionsWithBoard() {
   return o;
 }
 
+// `capture` on PHOTOS_DIR into OUT_DIR, quiet, with one silhouette
+// iteration (enough for the tests that check lights and poses, not the
+// registration); DESCRIPTION defaults to PHOTOS_DIR/capture.json.
+nlohmann::json QuickCapture(const std::string& photos_dir, const std::string& out_dir,
+                            const std::string& description = "") {
+  CaptureJob job;
+  job.photos_dir = photos_dir;
+  job.description = description;
+  job.out_dir = out_dir;
+  job.progress = false;
+  job.silhouette_iterations = 1;
+  return RunCapture(job);
+}
+
 // One raw set shared by all tests of the suite: rendered once per process
 // (tests/CMakeLists.txt runs this binary as one ctest test) in a temporary
 // folder that TearDownTestSuite removes.
@@ -456,14 +470,9 @@ TEST_F(Registration, FlashLightsFollowTheCamera) {
   for (auto& p : desc["photos"]) p["light"] = 1;
   const std::string desc_path = raw.dir + "/capture_flash.json";
   WriteFileAtomic(desc_path, desc.dump());
-  CaptureJob job;
-  job.photos_dir = raw.dir;
-  job.description = desc_path;
-  job.out_dir = (fs::path(raw.dir).parent_path() / "capture_flash").string();
-  job.progress = false;
-  job.silhouette_iterations = 1;
-  RunCapture(job);
-  const Scene scene = LoadScene(job.out_dir + "/scene.json");
+  const std::string out_dir = (fs::path(raw.dir).parent_path() / "capture_flash").string();
+  QuickCapture(raw.dir, out_dir, desc_path);
+  const Scene scene = LoadScene(out_dir + "/scene.json");
   ASSERT_EQ(scene.lights.size(), scene.images.size());
   for (const ImageEntry& e : scene.images) {
     const Light* l = nullptr;
@@ -472,7 +481,7 @@ TEST_F(Registration, FlashLightsFollowTheCamera) {
     EXPECT_NEAR((e.cam_from_world * l->position - Vec3(0.05, -0.02, 0.0)).norm(), 0.0, 1e-9);
     EXPECT_EQ(l->intensity[0], 2.0);
   }
-  fs::remove_all(job.out_dir);
+  fs::remove_all(out_dir);
 }
 
 // A flash on the camera whose intensity nobody wrote down: measured on the
@@ -495,12 +504,7 @@ nlohmann::json FlashRawSetThroughCapture(const std::string& tmpl, const std::str
   WriteColmapCameras({truth.camera}, tmpl + "/raw/cameras.txt");
   desc["camera"] = {{"cameras_txt", "cameras.txt"}};
   WriteFileAtomic(tmpl + "/raw/capture.json", desc.dump());
-  CaptureJob job;
-  job.photos_dir = tmpl + "/raw";
-  job.out_dir = tmpl + "/capture";
-  job.progress = false;
-  job.silhouette_iterations = 1;
-  return RunCapture(job);
+  return QuickCapture(tmpl + "/raw", tmpl + "/capture");
 }
 
 TEST(RegistrationFlash, FlashIntensityFromTheBoardPaper) {
@@ -600,14 +604,9 @@ TEST(RegistrationColmap, ColmapPosesPlacedAndScaled) {
     }
   desc["known_distance"] = {{"images", {desc["photos"][a]["files"][0], desc["photos"][b]["files"][0]}}, {"metres", far}};
   WriteFileAtomic(tmpl + "/raw/capture.json", desc.dump());
-  CaptureJob job;
-  job.photos_dir = tmpl + "/raw";
-  job.out_dir = tmpl + "/capture";
-  job.progress = false;
-  job.silhouette_iterations = 1;
-  const nlohmann::json report = RunCapture(job);
+  const nlohmann::json report = QuickCapture(tmpl + "/raw", tmpl + "/capture");
   const nlohmann::json& c = report["colmap"];
-  const Scene scene = LoadScene(job.out_dir + "/scene.json");
+  const Scene scene = LoadScene(tmpl + "/capture/scene.json");
   EXPECT_EQ(c["registered_images"].get<int>(), 8);
   double worst_deg = 0, worst_mm = 0;
   for (const ImageEntry& e : scene.images) {
