@@ -134,14 +134,38 @@ std::vector<ModelSpec> SplitModels(const ReconstructOptions& o) {
   return specs;
 }
 
-BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
+double SplitCoherence(const Clustering& cl, const std::vector<int>& side) {
+  const std::vector<int>& label = cl.assign();
+  std::vector<double> count;
+  double pairs = 0, differ = 0, n = 0;
+  for (int t = 0; t < cl.num_texels(); ++t) {
+    if (side[t] == 0 || !cl.usable()[t] || label[t] < 0) continue;
+    if (label[t] >= int(count.size())) count.resize(label[t] + 1, 0.0);
+    count[label[t]] += 1, n += 1;
+    for (int u : cl.neighbours()[t])
+      if (side[u] != 0 && cl.usable()[u] && label[u] >= 0) pairs += 1, differ += label[u] != label[t];
+  }
+  double same = 0;
+  for (double c : count) same += (c / std::max(1.0, n)) * (c / std::max(1.0, n));
+  const double expected = 1.0 - same;
+  if (pairs == 0 || expected <= 1e-12) return 1.0;
+  return 1.0 - (differ / pairs) / expected;
+}
+
+namespace {
+
+// Screening of every SplitModels() model on cluster k (see FitSplitModel):
+// returns the index of the one with the lowest validation error, its
+// screening fit in *fit; -1 when the cluster has no training samples.
+int ScreenSplitModels(const Clustering& cl, int k, const std::vector<ModelSpec>& specs, const BasisMaterial* start_from,
+                      FitResult* fit) {
   const ReconstructOptions& o = cl.options();
-  const std::vector<ModelSpec> specs = SplitModels(o);
-  auto start = [&](const ModelSpec& spec) { return parent && parent->spec == spec ? parent->params : std::vector<double>{}; };
-  if (specs.size() == 1) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  auto start = [&](const ModelSpec& spec) {
+    return start_from && start_from->spec == spec ? start_from->params : std::vector<double>{};
+  };
   std::vector<int64_t> train, hold;
   ValidationSamples(cl, k, &train, &hold);
-  if (train.empty()) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  if (train.empty()) return -1;
   // Independent quick fits (screening, as in model selection), one per thread.
   std::vector<FitResult> fits(specs.size());
   std::vector<double> mse(specs.size(), 0.0);
@@ -158,10 +182,33 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
     for (double e : SampleErrors(specs[j], fits[j].params, cl.samples(), hold)) sum += e;
     mse[j] = sum / (3.0 * hold.size());
   });
-  const size_t best = size_t(std::min_element(mse.begin(), mse.end()) - mse.begin());
+  const int best = int(std::min_element(mse.begin(), mse.end()) - mse.begin());
+  *fit = fits[best];
+  return best;
+}
+
+}  // namespace
+
+BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
+  const std::vector<ModelSpec> specs = SplitModels(cl.options());
+  auto start = [&](const ModelSpec& spec) { return parent && parent->spec == spec ? parent->params : std::vector<double>{}; };
+  FitResult screened;
+  const int best = specs.size() == 1 ? -1 : ScreenSplitModels(cl, k, specs, parent, &screened);
+  if (best < 0) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
   // The chosen model fitted fully (robust, all training samples), from its
   // screening fit: the split test scores the halves before refinement.
-  return MakeBasis(specs[best], cl.Fit(specs[best], k, fits[best].params, 0, -1, parent == nullptr), k);
+  return MakeBasis(specs[best], cl.Fit(specs[best], k, screened.params, 0, -1, parent == nullptr), k);
+}
+
+bool RechooseSplitModel(Clustering& cl, int k) {
+  const std::vector<ModelSpec> specs = SplitModels(cl.options());
+  if (specs.size() == 1) return false;
+  const BasisMaterial current = cl.basis()[k];
+  FitResult screened;
+  const int best = ScreenSplitModels(cl, k, specs, &current, &screened);
+  if (best < 0 || specs[best] == current.spec) return false;
+  cl.SetBasis(k, MakeBasis(specs[best], cl.Fit(specs[best], k, screened.params, 0, -1, true), k));
+  return true;
 }
 
 }  // namespace svbrdf
