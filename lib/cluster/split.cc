@@ -152,20 +152,14 @@ double SplitCoherence(const Clustering& cl, const std::vector<int>& side) {
   return 1.0 - (differ / pairs) / expected;
 }
 
-namespace {
-
-// Screening of every SplitModels() model on cluster k (see FitSplitModel):
-// returns the index of the one with the lowest validation error, its
-// screening fit in *fit; -1 when the cluster has no training samples.
-int ScreenSplitModels(const Clustering& cl, int k, const std::vector<ModelSpec>& specs, const BasisMaterial* start_from,
-                      FitResult* fit) {
+BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
   const ReconstructOptions& o = cl.options();
-  auto start = [&](const ModelSpec& spec) {
-    return start_from && start_from->spec == spec ? start_from->params : std::vector<double>{};
-  };
+  const std::vector<ModelSpec> specs = SplitModels(o);
+  auto start = [&](const ModelSpec& spec) { return parent && parent->spec == spec ? parent->params : std::vector<double>{}; };
+  if (specs.size() == 1) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
   std::vector<int64_t> train, hold;
   ValidationSamples(cl, k, &train, &hold);
-  if (train.empty()) return -1;
+  if (train.empty()) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
   // Independent quick fits (screening, as in model selection), one per thread.
   std::vector<FitResult> fits(specs.size());
   std::vector<double> mse(specs.size(), 0.0);
@@ -182,33 +176,10 @@ int ScreenSplitModels(const Clustering& cl, int k, const std::vector<ModelSpec>&
     for (double e : SampleErrors(specs[j], fits[j].params, cl.samples(), hold)) sum += e;
     mse[j] = sum / (3.0 * hold.size());
   });
-  const int best = int(std::min_element(mse.begin(), mse.end()) - mse.begin());
-  *fit = fits[best];
-  return best;
-}
-
-}  // namespace
-
-BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
-  const std::vector<ModelSpec> specs = SplitModels(cl.options());
-  auto start = [&](const ModelSpec& spec) { return parent && parent->spec == spec ? parent->params : std::vector<double>{}; };
-  FitResult screened;
-  const int best = specs.size() == 1 ? -1 : ScreenSplitModels(cl, k, specs, parent, &screened);
-  if (best < 0) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  const size_t best = size_t(std::min_element(mse.begin(), mse.end()) - mse.begin());
   // The chosen model fitted fully (robust, all training samples), from its
   // screening fit: the split test scores the halves before refinement.
-  return MakeBasis(specs[best], cl.Fit(specs[best], k, screened.params, 0, -1, parent == nullptr), k);
-}
-
-bool RechooseSplitModel(Clustering& cl, int k) {
-  const std::vector<ModelSpec> specs = SplitModels(cl.options());
-  if (specs.size() == 1) return false;
-  const BasisMaterial current = cl.basis()[k];
-  FitResult screened;
-  const int best = ScreenSplitModels(cl, k, specs, &current, &screened);
-  if (best < 0 || specs[best] == current.spec) return false;
-  cl.SetBasis(k, MakeBasis(specs[best], cl.Fit(specs[best], k, screened.params, 0, -1, true), k));
-  return true;
+  return MakeBasis(specs[best], cl.Fit(specs[best], k, fits[best].params, 0, -1, parent == nullptr), k);
 }
 
 }  // namespace svbrdf

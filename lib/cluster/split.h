@@ -52,16 +52,6 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
 // texel by texel. 1 when the texels carry a single label.
 double SplitCoherence(const Clustering& cl, const std::vector<int>& side);
 
-// Chooses cluster k's split-stage model again on its current texels (the
-// screening of FitSplitModel, the current material warm-starting its own
-// model) and, when another model wins, fits that one fully and sets it.
-// The halves of a split get their models before the refinement settles
-// their texels: a half that still mixed materials may get a model that suits
-// none of them (a Lafortune lobe on the metal of the Mitsuba sphere), and the
-// next split of that cluster then gains by the change of model alone, which
-// the stopping rule would count as a new material. Returns whether it changed.
-bool RechooseSplitModel(Clustering& cl, int k);
-
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`.

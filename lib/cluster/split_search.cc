@@ -175,21 +175,6 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     log(Msg(cl.K(), " clusters (", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
             " % below the best so far, z = ", z, control_note, ")"));
     if (o.force_clusters > 0 || passes) {
-      // The accepted state's clusters choose their models again on their
-      // settled texels (RechooseSplitModel), so that the next split is
-      // measured against the best this partition can do.
-      std::string changed;
-      for (int j = 0; j < cl.K(); ++j) {
-        const std::string before = cl.basis()[j].spec.Label();
-        if (RechooseSplitModel(cl, j)) changed += Msg(changed.empty() ? "" : ", ", j, " ", before, " -> ", cl.basis()[j].spec.Label());
-      }
-      if (!changed.empty()) {
-        Refine(cl, o.refine_iterations, true);
-        h = cl.HeldoutRmse(false, &texel_sse);
-        est.history.back() = {cl.K(), cl.TrainRmse(), h, false, PartitionKey(cl.assign())};
-        evaluated.insert(est.history.back().partition);
-        log(Msg("models chosen again on the settled clusters (", changed, "): held-out RMSE ", h));
-      }
       states.push_back({cl.basis(), cl.assign(), h, texel_sse});
       best = h;
       best_state = states.size() - 1;
