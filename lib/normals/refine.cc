@@ -228,6 +228,9 @@ class Refiner {
     so.parameter_tolerance = 1e-6;
     so.num_threads = 1;  // parallel over texels instead
     so.logging_type = ceres::SILENT;
+    // The bounds make Ceres line-search every step; cubic interpolation
+    // would evaluate the Jacobian at the trial point (see lib/fit/fit.cc).
+    so.line_search_interpolation_type = ceres::QUADRATIC;
     ceres::Solver::Summary summary;
     const double start[2] = {ab[0], ab[1]};
     ceres::Solve(so, &problem, &summary);
