@@ -27,6 +27,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--max-clusters", job->estimate.max_clusters, "upper bound on basis materials");
   c->add_option("--clusters", job->estimate.force_clusters, "force exactly this many basis materials");
   c->add_option("--min-improvement", job->estimate.min_improvement, "relative held-out error drop needed to keep a split");
+  c->add_option("--min-split-coherence", job->estimate.min_split_coherence,
+                "a split's halves must form regions: 1 - (neighbour pairs split) / (that share for random labels),\n"
+                "in [0, 1] (0 = no such test)");
   c->add_option("--robust", job->estimate.robust_scale, "Cauchy loss scale of cluster fits (-1 = automatic, 0 = least squares)");
   c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
   c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
