@@ -38,18 +38,6 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
       if (u >= 0 && u < nt_) neighbours_[t].push_back(u);
     }
   }
-  mix_neighbours_.resize(nt_);
-  const int r = o.mix_radius;
-  for (int t = 0; t < nt_ && t < int(atlas.texels.size()); ++t) {
-    const Texel& tx = atlas.texels[t];
-    for (int dy = -r; dy <= r; ++dy)
-      for (int dx = -r; dx <= r; ++dx) {
-        const int x = tx.x + dx, y = tx.y + dy;
-        if ((dx == 0 && dy == 0) || x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
-        const int u = atlas.At(x, y);
-        if (u >= 0 && u < nt_) mix_neighbours_[t].push_back(u);
-      }
-  }
   usable_.resize(nt_);
   for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_samples;
   if (std::count(usable_.begin(), usable_.end(), true) == 0)

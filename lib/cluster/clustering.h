@@ -24,8 +24,35 @@ inline double Sq(double x) { return x * x; }
 // y*p and p*p), limited to [0.5, 2]: darker or brighter, not another material.
 inline double BrightnessScale(double yp, double pp) { return std::clamp(yp / pp, 0.5, 2.0); }
 
+// How per-texel mixing weights are estimated (weights.cc): NNLS per texel
+// over the basis materials of the clusters near it, with a ridge prior
+// towards its own cluster's material (at the brightness that fits it best),
+// and optionally a second pass with the prior towards the mean of its
+// neighbours' first-pass weights.
+struct WeightModel {
+  bool per_channel = false;  // one weight per material and colour channel (else one per material)
+  // Materials of the clusters within this many neighbour steps (8-neighbours
+  // in the atlas: the Chebyshev distance) may mix into a texel.
+  int radius = 2;
+  bool smooth = false;       // the second (neighbour) pass
+  // Prior strengths in samples. Trace prior (per_material_prior = false, the
+  // split search's measure): one ridge for all materials, `prior_samples`
+  // times the texel's mean squared prediction over all materials. Per
+  // material: each weight's ridge is that many samples of its own material's
+  // mean squared prediction, so a highlight that one material puts on a
+  // mixed texel does not pin the weights of the others (seen: the dull
+  // material's weight in a blend zone pulled to 0 by a glossy neighbour's
+  // highlight).
+  double prior_samples = 1.0;
+  double smooth_samples = 3.0;
+  bool per_material_prior = false;
+  std::string Label() const;
+};
+
 class Clustering {
  public:
+  static constexpr uint8_t kFar = 255;
+
   Clustering(const SampleSet& s, const Atlas& atlas, const ReconstructOptions& o);
 
   int K() const { return static_cast<int>(basis_.size()); }
@@ -38,8 +65,6 @@ class Clustering {
   const std::vector<char>& holdout() const { return holdout_; }
   const std::vector<int>& train_count() const { return train_count_; }
   const std::vector<std::vector<int>>& neighbours() const { return neighbours_; }
-  // Texels within options().mix_radius (whose clusters a texel's weights may mix).
-  const std::vector<std::vector<int>>& mix_neighbours() const { return mix_neighbours_; }
   const SampleSet& samples() const { return s_; }
   const ReconstructOptions& options() const { return o_; }
 
@@ -80,13 +105,20 @@ class Clustering {
   // subset of samples (train, or all), error on another (held-out, or all).
   // Returns the summed squared error and its sample-channel count; `weights`
   // (texel-major [t][k][c]) when non-null.
-  double MixtureError(bool per_channel, bool fit_on_all, bool eval_on_all, int64_t* count,
+  double MixtureError(const WeightModel& m, bool fit_on_all, bool eval_on_all, int64_t* count,
                       std::vector<float>* weights, std::vector<float>* residual,
                       std::vector<double>* per_texel = nullptr,
                       const std::vector<float>* smooth_from = nullptr) const;
-  double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr, bool smooth = false) const;
+  // Held-out RMSE of the weights (both passes when m.smooth).
+  double HeldoutRmse(const WeightModel& m, std::vector<double>* per_texel = nullptr) const;
+  // The split search's measure: one pass, trace prior, options().mix_radius.
+  double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr) const;
   // Final weights on all samples: a first pass, then the smoothness pass.
-  void FinalWeights(bool per_channel, std::vector<float>* weights, std::vector<float>* residual) const;
+  void FinalWeights(const WeightModel& m, std::vector<float>* weights, std::vector<float>* residual) const;
+  // Distance of every texel to the nearest texel of each cluster in
+  // neighbour steps (texel-major [t][k]; kFar when unreachable), over texels
+  // that have training samples.
+  std::vector<uint8_t> ClusterDistances() const;
 
   double TrainRmse(int k = -1) const;
   double ClusterSse(int k) const;
@@ -101,7 +133,7 @@ class Clustering {
   std::vector<int> train_count_;
   std::vector<char> usable_;
   std::vector<int> assign_;
-  std::vector<std::vector<int>> neighbours_, mix_neighbours_;
+  std::vector<std::vector<int>> neighbours_;
   std::vector<char> changed_;
   std::vector<BasisMaterial> basis_;
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample

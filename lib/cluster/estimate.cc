@@ -7,6 +7,7 @@
 #include "cluster/model_selection.h"
 #include "cluster/quality.h"
 #include "cluster/split.h"
+#include "cluster/weights.h"
 #include "core/error.h"
 
 namespace svbrdf {
@@ -91,17 +92,12 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
     est.cut_by_deadline.push_back("final refinement");
   }
 
-  // 4. Mixing weights: scalar or per channel, by held-out error.
-  est.heldout_rmse_scalar = cl.HeldoutRmse(false, nullptr, true);
-  est.heldout_rmse_channel = cl.HeldoutRmse(true, nullptr, true);
-  est.per_channel_weights = est.heldout_rmse_channel < est.heldout_rmse_scalar;
-  est.heldout_rmse = std::min(est.heldout_rmse_scalar, est.heldout_rmse_channel);
-  log(Msg("weights: ", est.per_channel_weights ? "per channel" : "scalar", " (held-out RMSE scalar ",
-          est.heldout_rmse_scalar, ", per channel ", est.heldout_rmse_channel, ")"));
-  cl.FinalWeights(est.per_channel_weights, &est.weights, &est.residual);
+  // 4. Mixing weights: scalar or per channel, and how far materials mix, by held-out error (weights.cc).
+  const WeightModel weight_model = ChooseWeightModel(cl, &est, log);
+  cl.FinalWeights(weight_model, &est.weights, &est.residual);
 
   // 6. What the model explains poorly (quality.cc).
-  est.cluster_quality = MeasureClusterQuality(cl, est.per_channel_weights);
+  est.cluster_quality = MeasureClusterQuality(cl, weight_model);
   for (const ClusterQuality& q : est.cluster_quality)
     log(Msg("cluster ", q.cluster, " (", cl.basis()[q.cluster].spec.Label(), ", ", q.texels, " texels): held-out RMSE ",
             q.heldout_rmse, " = ", 100 * q.heldout_rmse / std::max(1e-300, q.signal_rms), " % of its signal",

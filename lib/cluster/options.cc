@@ -17,6 +17,9 @@ void ReconstructOptions::Check() const {
   if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");
   if (!(parsimony >= 0)) throw Error("reconstruct: parsimony must be >= 0");
   if (mix_radius < 1 || mix_radius > 8) throw Error(Msg("reconstruct: mix radius must be in [1, 8], got ", mix_radius));
+  if (weight_radii.empty()) throw Error("reconstruct: no weight radii");
+  for (int r : weight_radii)
+    if (r < 1 || r > 64) throw Error(Msg("reconstruct: weight radius must be in [1, 64], got ", r));
   if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
   if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");
   if (candidate_models.empty() && force_model.empty()) throw Error("reconstruct: no candidate models");

@@ -4,9 +4,9 @@
 
 namespace svbrdf {
 
-std::vector<ClusterQuality> MeasureClusterQuality(const Clustering& cl, bool per_channel_weights) {
+std::vector<ClusterQuality> MeasureClusterQuality(const Clustering& cl, const WeightModel& weights) {
   std::vector<double> texel_sse;
-  cl.HeldoutRmse(per_channel_weights, &texel_sse, true);
+  cl.HeldoutRmse(weights, &texel_sse);
   const SampleSet& s = cl.samples();
   std::vector<ClusterQuality> q(cl.K());
   std::vector<double> sse(cl.K(), 0.0), signal(cl.K(), 0.0), n(cl.K(), 0.0);

@@ -7,6 +7,6 @@
 
 namespace svbrdf {
 
-std::vector<ClusterQuality> MeasureClusterQuality(const Clustering& cl, bool per_channel_weights);
+std::vector<ClusterQuality> MeasureClusterQuality(const Clustering& cl, const WeightModel& weights);
 
 }  // namespace svbrdf

@@ -81,6 +81,12 @@ Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const 
   so.function_tolerance = options.function_tolerance;
   so.num_threads = ResolveThreads(options.threads);
   so.logging_type = ceres::SILENT;
+  // With bounds, Ceres follows every trust-region step by a projected Armijo
+  // line search; its default cubic interpolation evaluates the gradient (a
+  // whole Jacobian) at the trial point, which the minimizer then evaluates
+  // again. Quadratic interpolation needs the cost alone there (measured: the
+  // line search was 46 % of all fit time).
+  so.line_search_interpolation_type = ceres::QUADRATIC;
   ceres::Solve(so, &problem, &solution.summary);
   return solution;
 }

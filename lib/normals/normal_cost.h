@@ -66,6 +66,16 @@ bool TiltedDirections(const T* ab_texel, const TexelSample& s, Vec3T<T>* wi, Vec
   return wi->z() > T(0) && wo->z() > T(0);
 }
 
+// Value of basis k alone (weight 1) for the directions wi, wo of a sample
+// in its tilted frame (times neither cos ratio nor geom).
+template <class T>
+void EvalBasis(const WeightedBasis& basis, const Vec3T<T>& wi, const Vec3T<T>& wo, T* rgb) {
+  const int np = basis.spec->NumParams();
+  T p[kMaxModelParams];
+  for (int j = 0; j < np; ++j) p[j] = T(basis.params[j]);
+  EvalModel(*basis.spec, p, wi, wo, rgb);
+}
+
 // Prediction of basis k alone (weight 1) for sample s under normal (a, b).
 template <class T>
 void PredictBasis(const WeightedBasis& basis, const TexelSample& s, const T* ab, T* rgb) {
@@ -75,10 +85,7 @@ void PredictBasis(const WeightedBasis& basis, const TexelSample& s, const T* ab,
     rgb[0] = rgb[1] = rgb[2] = T(0);
     return;
   }
-  const int np = basis.spec->NumParams();
-  T p[kMaxModelParams];
-  for (int j = 0; j < np; ++j) p[j] = T(basis.params[j]);
-  EvalModel(*basis.spec, p, wi, wo, rgb);
+  EvalBasis(basis, wi, wo, rgb);
   for (int c = 0; c < 3; ++c) rgb[c] *= ratio * s.geom;
 }
 
@@ -94,10 +101,17 @@ struct NormalSampleCost {
   template <class T>
   bool operator()(const T* ab, T* residual) const {
     T sum[3] = {T(0), T(0), T(0)};
-    for (const WeightedBasis& b : *basis) {
-      T rgb[3];
-      PredictBasis(b, *sample, ab, rgb);
-      for (int c = 0; c < 3; ++c) sum[c] += b.w[c] * rgb[c];
+    // The tilted frame once per sample, shared by the basis materials.
+    Vec3T<T> wi, wo;
+    T ratio;
+    if (TiltedDirections(ab, *sample, &wi, &wo, &ratio)) {
+      for (const WeightedBasis& b : *basis) {
+        T rgb[3];
+        EvalBasis(b, wi, wo, rgb);
+        for (int c = 0; c < 3; ++c) sum[c] += b.w[c] * rgb[c];
+      }
+      const T shading = ratio * sample->geom;
+      for (int c = 0; c < 3; ++c) sum[c] *= shading;
     }
     for (int c = 0; c < 3; ++c) residual[c] = scale * (sum[c] - sample->y[c]);
     return true;

@@ -1,7 +1,5 @@
 #include "normals/refine.h"
 
-#include <ceres/ceres.h>
-
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -15,6 +13,7 @@
 #include "core/progress.h"
 #include "core/rng.h"
 #include "normals/normal_cost.h"
+#include "normals/tilt_solver.h"
 
 namespace svbrdf {
 
@@ -212,30 +211,15 @@ class Refiner {
     if (basis[0].empty() || fit.samples.empty()) return;
     std::vector<const std::vector<WeightedBasis>*> per_sample(fit.samples.size());
     for (size_t i = 0; i < fit.samples.size(); ++i) per_sample[i] = &basis[fit.source[i]];
-    ceres::Problem problem;
     const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, robust_mult * o_.robust_sigmas * sigma) : 0.0;
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<normals::NormalBatchCost, ceres::DYNAMIC, 2>(
-            new normals::NormalBatchCost{&fit.samples, &per_sample, &fit.weight, cauchy, sigma / o_.prior_tilt},
-            int(3 * fit.samples.size() + 2)),
-        nullptr, ab);
-    for (int j = 0; j < 2; ++j) {
-      problem.SetParameterLowerBound(ab, j, -max_ab_);
-      problem.SetParameterUpperBound(ab, j, max_ab_);
-    }
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.max_num_iterations = o_.max_iterations;
+    const normals::NormalBatchCost cost{&fit.samples, &per_sample, &fit.weight, cauchy, sigma / o_.prior_tilt};
+    normals::TiltSolverOptions so;
+    so.max_iterations = o_.max_iterations;
     // A tilt to 1e-6 is far below what a photo resolves; tighter only adds iterations.
     so.function_tolerance = 1e-6;
     so.parameter_tolerance = 1e-6;
-    so.num_threads = 1;  // parallel over texels instead
-    so.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
-    const double start[2] = {ab[0], ab[1]};
-    ceres::Solve(so, &problem, &summary);
-    if (summary.termination_type == ceres::FAILURE || !std::isfinite(ab[0]) || !std::isfinite(ab[1]))
-      ab[0] = start[0], ab[1] = start[1];
+    so.bound = max_ab_;
+    normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), so, ab);
   }
 
   // Mixing weights by NNLS with the normal (a, b) on the texel's own

@@ -207,6 +207,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["warnings"] = g.stats.warnings;
   summary["clusters"] = est.basis.size();
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
+  summary["weight_radius"] = est.weight_radius;
   summary["heldout_rmse"] = est.heldout_rmse;
   if (job.time_budget_s > 0) {
     summary["time_budget_s"] = job.time_budget_s;
