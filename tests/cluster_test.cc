@@ -12,6 +12,7 @@
 #include "cluster/model_selection.h"
 #include "cluster/nnls.h"
 #include "cluster/reconstruct.h"
+#include "cluster/split.h"
 #include "cluster/stats.h"
 #include "cluster/weights.h"
 #include "core/error.h"
@@ -210,6 +211,27 @@ TEST(Cluster, PartitionKeyIgnoresClusterNumbering) {
   EXPECT_EQ(PartitionKey({0, 0, 1, 2, 1}), PartitionKey({2, 2, 0, 1, 0}));
   EXPECT_NE(PartitionKey({0, 0, 1, 1, 1}), PartitionKey({0, 1, 1, 1, 1}));
   EXPECT_NE(PartitionKey({0, 0, 0}), PartitionKey({0, 0, 1}));
+}
+
+// The split test's coherence (SplitCoherence): halves that are regions
+// score near 1, labels interleaved texel by texel (checkerboard, random)
+// near 0 or below, whatever the proportions.
+TEST(Cluster, SplitCoherenceTellsRegionsFromInterleavedLabels) {
+  const int n = 20;
+  const SampleSet s = MakeSamples({Lambert(0.5, 0.5, 0.5)}, std::vector<int>(n * n, 0), 61);
+  const ReconstructOptions o = Quiet();
+  Clustering cl(s, GridAtlas(n, n), o);
+  const std::vector<int> side(n * n, 1);
+  auto coherence = [&](auto label_of) {
+    for (int t = 0; t < n * n; ++t) cl.assign()[t] = label_of(t % n, t / n);
+    return SplitCoherence(cl, side);
+  };
+  EXPECT_GT(coherence([](int x, int) { return x < 10 ? 0 : 1; }), 0.85);
+  EXPECT_GT(coherence([](int x, int y) { return x >= 4 && x < 8 && y >= 4 && y < 16 ? 1 : 0; }), 0.7);  // a 4-texel stripe
+  EXPECT_LT(coherence([](int x, int y) { return (x + y) % 2; }), 0.1);
+  std::mt19937 rng(5);
+  EXPECT_LT(std::abs(coherence([&](int, int) { return int(rng() % 3 == 0); })), 0.15);
+  EXPECT_EQ(coherence([](int, int) { return 0; }), 1.0);  // one label: nothing split
 }
 
 // Two colours, but no split is ever good enough (min_z out of reach): the
