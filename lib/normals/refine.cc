@@ -300,7 +300,8 @@ class Refiner {
   // `texels`), fitting samples of kind `which` (0 training, 2 all). With
   // `refine` false only the weights are solved (mesh normals). Each pass
   // solves all normals from the previous weights, then all weights (Jacobi:
-  // the result does not depend on the thread count). Returns sigma.
+  // the result does not depend on the thread count). Returns sigma, or a
+  // negative value when the deadline (NormalOptions) came before a pass.
   double Run(const std::vector<int>& texels, int which, bool refine, const std::vector<Vec2>* start, State* st,
              Progress* progress) const {
     const long n = long(texels.size());
@@ -327,6 +328,7 @@ class Refiner {
     double sigma = Sigma(texels, which, *st);
     if (!refine) return sigma;
     for (int it = 0; it < o_.iterations; ++it) {
+      if (std::chrono::steady_clock::now() > o_.deadline) return -1.0;
       const double robust_mult = std::pow(o_.robust_growth, o_.iterations - 1 - it);
       const std::vector<double> ab_before = st->ab;  // read by neighbours while st->ab is written
       auto tilt_of = [&](int u) {
@@ -439,7 +441,13 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     out.decision_texels = long(candidates.size());
     State mesh = MakeState(candidates.size(), K), tilted = MakeState(candidates.size(), K);
     r.Run(candidates, 0, false, nullptr, &mesh, nullptr);
-    r.Run(candidates, 0, true, start, &tilted, &progress);
+    // Anytime: a decision stopped by the deadline keeps the mesh normals.
+    if (r.Run(candidates, 0, true, start, &tilted, &progress) < 0) {
+      out.kept = false;
+      out.cut_by_deadline = true;
+      progress.Finish();
+      return out;
+    }
     int64_t n_mesh = 0, n_tilted = 0;
     const double sse_mesh = r.HeldoutSse(candidates, mesh, &n_mesh);
     const double sse_tilted = r.HeldoutSse(candidates, tilted, &n_tilted);
@@ -466,6 +474,12 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
   State st = MakeState(texels.size(), K);
   out.noise_sigma = r.Run(texels, 2, true, start, &st, &progress);
   progress.Finish();
+  if (out.noise_sigma < 0) {  // stopped by the deadline: nothing kept
+    out.kept = false;
+    out.cut_by_deadline = true;
+    out.noise_sigma = 0;
+    return out;
+  }
   std::vector<double> tilt;
   for (size_t j = 0; j < texels.size(); ++j) {
     const int t = texels[j];

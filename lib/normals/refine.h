@@ -97,7 +97,8 @@ struct NormalOptions {
   bool progress = true;
   // Anytime (reconstruct --time-budget): when the held-out decision took
   // so long that the fit on all texels (estimated from it) would end after
-  // this, the refinement is not kept (cut_by_deadline) instead of overrunning.
+  // this, the refinement is not kept (cut_by_deadline) instead of overrunning;
+  // the decision and the fit also stop before a pass that would start after it.
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
   void Check() const;
   bool Enabled() const { return mode != "off"; }
@@ -115,7 +116,7 @@ struct NormalRefinement {
   double heldout_rmse_refined = 0;  // ... and with refined normals
   long decision_texels = 0;
   double mean_tilt_deg = 0, median_tilt_deg = 0;  // of refined texels, from the mesh normal
-  bool cut_by_deadline = false;     // kept by the decision, but no time left for the fit on all texels
+  bool cut_by_deadline = false;     // not kept for lack of time: the deadline came during the decision or the fit, or the fit on all texels would end after it
   std::string Report() const;
 };
 
