@@ -39,7 +39,7 @@ struct Patch {
 };
 
 Patch MakePatch(const BasisMaterial& basis, int n, double max_tilt_deg, int views, double noise, uint64_t seed,
-                bool smooth = true) {
+                bool smooth = true, int flat_from_x = 1 << 30) {
   Patch p;
   p.atlas.width = p.atlas.height = n;
   p.atlas.index.assign(n * n, -1);
@@ -55,6 +55,10 @@ Patch MakePatch(const BasisMaterial& basis, int n, double max_tilt_deg, int view
       tx.tangent = Vec3(1, 0, 0);
       p.atlas.index[y * n + x] = int(p.atlas.texels.size());
       p.atlas.texels.push_back(tx);
+      if (x >= flat_from_x) {  // this part of the patch is flat: the mesh normal is right
+        p.truth.push_back(tx.normal);
+        continue;
+      }
       if (smooth) {  // a bump field: tan(tilt) per axis varies over ~12 texels
         const double m = std::tan(max_tilt_deg * kPi / 180.0) / std::sqrt(2.0);
         p.truth.push_back(Vec3(m * std::sin(2 * kPi * x / 12.0 + 0.3 * seed), m * std::cos(2 * kPi * y / 12.0), 1).normalized());
@@ -213,6 +217,39 @@ TEST(NormalRefinement, IsDeterministicAcrossThreadCounts) {
   const NormalRefinement b = RefineNormals(p.samples, p.atlas, p.estimate, o);
   EXPECT_EQ(a.normal, b.normal);
   EXPECT_EQ(a.weights, b.weights);
+}
+
+// The decision is taken per basis material: a bumped material keeps its
+// refined normals although another one's (here flat: the mesh normals are
+// right) are rejected. Two Lambertian basis materials, one per half.
+TEST(NormalRefinement, KeepsRefinedNormalsPerMaterial) {
+  const int n = 12;
+  Patch p = MakePatch(Lambert(), n, 20.0, 16, 0.01, 9, true, n / 2);
+  SvbrdfEstimate& e = p.estimate;
+  e.basis = {Lambert(), Lambert()};
+  e.weights.assign(size_t(n * n) * 2 * 3, 0.0f);
+  e.label.assign(n * n, 0);
+  for (int t = 0; t < n * n; ++t) {
+    const int k = p.atlas.texels[t].x >= n / 2;
+    e.label[t] = k;
+    for (int c = 0; c < 3; ++c) e.weights[(size_t(t) * 2 + k) * 3 + c] = 1.0f;
+  }
+  const Recovered r = Refine(p, "on");
+  ASSERT_EQ(r.r.material_kept.size(), 2u);
+  EXPECT_TRUE(r.r.kept) << r.r.Report();
+  EXPECT_EQ(r.r.material_kept[0], 1) << r.r.Report();
+  EXPECT_EQ(r.r.material_kept[1], 0) << r.r.Report();
+  double left = 0;
+  int count = 0;
+  for (int t = 0; t < n * n; ++t) {
+    if (p.atlas.texels[t].x >= n / 2) {
+      EXPECT_FALSE(r.r.refined[t]);
+      EXPECT_EQ(r.r.normal[t], p.atlas.texels[t].normal);
+    } else {
+      left += AngleDeg(r.r.normal[t], p.truth[t]), ++count;
+    }
+  }
+  EXPECT_LT(left / count, 1.5);
 }
 
 // Jet derivatives of the sample cost against central finite differences, for

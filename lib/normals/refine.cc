@@ -49,6 +49,9 @@ std::string NormalRefinement::Report() const {
      << heldout_rmse_refined << " refined (" << decision_texels << " texels); " << texels_refined
      << " texels refined, tilt mean " << mean_tilt_deg << " deg, median " << median_tilt_deg << " deg, noise sigma "
      << noise_sigma;
+  for (size_t k = 0; k < heldout_rmse_mesh_by_material.size(); ++k)
+    os << "; m" << k << (material_kept[k] ? " kept" : " not kept") << " (" << heldout_rmse_mesh_by_material[k] << " -> "
+       << heldout_rmse_refined_by_material[k] << ")";
   return os.str();
 }
 
@@ -348,20 +351,30 @@ class Refiner {
     return sigma;
   }
 
-  double HeldoutSse(const std::vector<int>& texels, const State& st, int64_t* count) const {
-    std::vector<double> sse(texels.size(), 0.0);
-    std::vector<int64_t> cnt(texels.size(), 0);
+  // Held-out squared error and channel count per texel (index j of `texels`).
+  void HeldoutSse(const std::vector<int>& texels, const State& st, std::vector<double>* sse,
+                  std::vector<int64_t>* count) const {
+    sse->assign(texels.size(), 0.0);
+    count->assign(texels.size(), 0);
     ParallelFor(long(texels.size()), o_.threads, [&](long j) {
       const std::vector<TexelSample> held = Samples(texels[j], 1);
-      Residuals(texels[j], held, &st.ab[2 * j], &st.w[size_t(j) * K_ * 3], nullptr, &sse[j]);
-      cnt[j] = 3 * int64_t(held.size());
+      Residuals(texels[j], held, &st.ab[2 * j], &st.w[size_t(j) * K_ * 3], nullptr, &(*sse)[j]);
+      (*count)[j] = 3 * int64_t(held.size());
     }, 64);
-    double sum = 0;
-    for (size_t j = 0; j < texels.size(); ++j) sum += sse[j], *count += cnt[j];
-    return sum;
   }
 
   const float* Est(int t) const { return &est_.weights[size_t(t) * K_ * 3]; }
+  // Basis material of texel t: its label, else its largest weight.
+  int Material(int t) const {
+    if (size_t(t) < est_.label.size() && est_.label[t] >= 0 && est_.label[t] < K_) return est_.label[t];
+    int best = 0;
+    double most = -1;
+    for (int k = 0; k < K_; ++k) {
+      const float* w = Est(t) + k * 3;
+      if (w[0] + w[1] + w[2] > most) most = w[0] + w[1] + w[2], best = k;
+    }
+    return best;
+  }
   int K() const { return K_; }
   bool Wanted(int64_t i, int which) const {
     const bool held = held_image_[s_.image[i]];
@@ -432,6 +445,7 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     std::sort(candidates.begin(), candidates.end());
   }
   const bool decide = o.mode == "on" && !candidates.empty();
+  out.material_kept.assign(K, 1);
   Progress progress("refine normals", long(o.iterations) * (long(texels.size()) + (decide ? long(candidates.size()) : 0)),
                     o.progress);
 
@@ -448,12 +462,41 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
       progress.Finish();
       return out;
     }
-    int64_t n_mesh = 0, n_tilted = 0;
-    const double sse_mesh = r.HeldoutSse(candidates, mesh, &n_mesh);
-    const double sse_tilted = r.HeldoutSse(candidates, tilted, &n_tilted);
+    // Per basis material (the texel's largest weight): refined normals are
+    // kept for the texels of the materials whose held-out error they lower.
+    // A material whose normals the data cannot locate (a glossy lobe seen by
+    // too few samples, a wrong model) must not cost the others theirs.
+    std::vector<double> sse_m, sse_t;
+    std::vector<int64_t> n_m, n_t;
+    r.HeldoutSse(candidates, mesh, &sse_m, &n_m);
+    r.HeldoutSse(candidates, tilted, &sse_t, &n_t);
+    std::vector<double> mat_mesh(K, 0.0), mat_tilted(K, 0.0);
+    std::vector<int64_t> mat_count(K, 0);
+    for (size_t j = 0; j < candidates.size(); ++j) {
+      const int k = r.Material(candidates[j]);
+      mat_mesh[k] += sse_m[j], mat_tilted[k] += sse_t[j], mat_count[k] += n_m[j];
+    }
+    out.material_kept.assign(K, 0);
+    for (int k = 0; k < K; ++k) {
+      out.material_kept[k] = mat_count[k] > 0 && mat_tilted[k] < (1.0 - o.min_improvement) * mat_mesh[k];
+      out.heldout_rmse_mesh_by_material.push_back(std::sqrt(mat_mesh[k] / std::max<int64_t>(1, mat_count[k])));
+      out.heldout_rmse_refined_by_material.push_back(std::sqrt(mat_tilted[k] / std::max<int64_t>(1, mat_count[k])));
+    }
+    double sse_mesh = 0, sse_chosen = 0;
+    int64_t n_mesh = 0;
+    for (size_t j = 0; j < candidates.size(); ++j) {
+      sse_mesh += sse_m[j], n_mesh += n_m[j];
+      sse_chosen += out.material_kept[r.Material(candidates[j])] ? sse_t[j] : sse_m[j];
+    }
     out.heldout_rmse_mesh = std::sqrt(sse_mesh / std::max<int64_t>(1, n_mesh));
-    out.heldout_rmse_refined = std::sqrt(sse_tilted / std::max<int64_t>(1, n_tilted));
-    out.kept = sse_tilted < (1.0 - o.min_improvement) * sse_mesh;
+    // The error of the chosen normals (refined where kept, mesh elsewhere).
+    out.heldout_rmse_refined = std::sqrt(sse_chosen / std::max<int64_t>(1, n_mesh));
+    out.kept = std::find(out.material_kept.begin(), out.material_kept.end(), 1) != out.material_kept.end();
+    // Only the texels of kept materials are fitted on all photos.
+    std::vector<int> kept_texels;
+    for (int t : texels)
+      if (out.material_kept[r.Material(t)]) kept_texels.push_back(t);
+    texels.swap(kept_texels);
     // The final fit refines every texel once, the decision the candidates
     // twice (mesh and tilted arms): its cost scales from the decision's.
     const auto now = std::chrono::steady_clock::now();
@@ -476,6 +519,7 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
   progress.Finish();
   if (out.noise_sigma < 0) {  // stopped by the deadline: nothing kept
     out.kept = false;
+    std::fill(out.material_kept.begin(), out.material_kept.end(), 0);
     out.cut_by_deadline = true;
     out.noise_sigma = 0;
     return out;

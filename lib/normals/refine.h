@@ -30,9 +30,12 @@
 // whole-photo split as the clustering's, so the basis materials never saw
 // them): on up to `decision_texels` texels, normals and weights are fitted on
 // the training photos with and without refinement (the same weight solver for
-// both), and the refined normals are kept only if the held-out squared error
-// drops by `min_improvement` (relative). The kept normals are then fitted on
-// all samples. Deterministic for a seed and independent of the thread count
+// both), and, per basis material (each texel counted with its largest
+// weight), the refined normals are kept only if that material's held-out
+// squared error drops by `min_improvement` (relative): one material whose
+// normals the data cannot place (a glossy lobe seen by few samples) must not
+// cost the others theirs. The kept materials' normals are then fitted on
+// all samples; the other texels keep the mesh normal. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
 #include <chrono>
@@ -105,7 +108,11 @@ struct NormalOptions {
 };
 
 struct NormalRefinement {
-  bool kept = false;                // refined normals (and re-solved weights) replace the clustering's
+  bool kept = false;                // refined normals (and re-solved weights) replace the clustering's (for some material)
+  // Per basis material: its texels (by largest weight) keep refined normals
+  // (decided per material on the held-out photos; all 1 with mode "force").
+  std::vector<char> material_kept;
+  std::vector<double> heldout_rmse_mesh_by_material, heldout_rmse_refined_by_material;  // decision, per material
   std::vector<Vec3> normal;         // per texel, world space, unit (the mesh normal where not refined)
   std::vector<Vec2> tilt;           // per texel, (a, b) of normal_cost.h in the mesh frame (0 where not refined)
   std::vector<char> refined;        // per texel: has its own normal
@@ -113,7 +120,7 @@ struct NormalRefinement {
   long texels_refined = 0;
   double noise_sigma = 0;           // sigma used in the final pass
   double heldout_rmse_mesh = 0;     // decision: held-out RMSE with mesh normals
-  double heldout_rmse_refined = 0;  // ... and with refined normals
+  double heldout_rmse_refined = 0;  // ... and with the chosen normals (refined for kept materials, mesh elsewhere)
   long decision_texels = 0;
   double mean_tilt_deg = 0, median_tilt_deg = 0;  // of refined texels, from the mesh normal
   bool cut_by_deadline = false;     // not kept for lack of time: the deadline came during the decision or the fit, or the fit on all texels would end after it

@@ -56,7 +56,10 @@ nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est
           {"texels_refined", nr.texels_refined},
           {"noise_sigma", nr.noise_sigma},
           {"mean_tilt_deg", nr.mean_tilt_deg},
-          {"median_tilt_deg", nr.median_tilt_deg}};
+          {"median_tilt_deg", nr.median_tilt_deg},
+          {"material_kept", std::vector<int>(nr.material_kept.begin(), nr.material_kept.end())},
+          {"heldout_rmse_mesh_by_material", nr.heldout_rmse_mesh_by_material},
+          {"heldout_rmse_refined_by_material", nr.heldout_rmse_refined_by_material}};
 }
 
 // The normal map as colours (xyz -> rgb = (n + 1) / 2) and, when the capture
