@@ -5,19 +5,25 @@
 #   OUT/<capture>/material/      the material folder (svbrdf reconstruct)
 #   OUT/<capture>/time.txt       /usr/bin/time -v of the reconstruction
 #   OUT/<capture>/evaluate.txt   held-out PSNR when the capture has heldout/scene.json
+#                                (relit with `svbrdf relight RELIGHT_OPTIONS`, see --relight)
 # and a final step collects OUT/summary.md and OUT/summary.json (a table: clusters,
 # held-out PSNR, wall and CPU seconds, peak memory per capture).
 #
 # Usage: scripts/batch.sh CAPTURES_DIR OUT_DIR [--local] [--slurm] [--partition P]
-#                         [--time-limit MIN] [--max-parallel N] [-- reconstruct options...]
+#                         [--time-limit MIN] [--max-parallel N] [--relight "OPTIONS"]
+#                         [-- reconstruct options...]
 #   CAPTURES_DIR: every sub-folder holding a scene.json is one capture.
+#   --relight: relight options of the held-out scoring (default "--spp 4": a
+#     camera pixel integrates its footprint, as real cameras and Mitsuba's box
+#     filter do; "--spp 1" for photos rendered at the pixel centre; add
+#     "--bounces 2" for captures with interreflection).
 #   Default: Slurm when `sbatch` is on PATH, else local.
 # Example: scripts/batch.sh captures/ results/ -- --time-budget 30
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 SVBRDF="${SVBRDF:-$ROOT/build/apps/svbrdf}"
 
-usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+usage() { sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 
 # --- one task: reconstruct (and evaluate) capture number $1 of the list ----
 run_task() {
@@ -37,7 +43,8 @@ run_task() {
   local heldout
   heldout="$(dirname "$scene")/heldout/scene.json"
   if [ "$rc" -eq 0 ] && [ -f "$heldout" ]; then
-    "$SVBRDF" relight "$dir/material" "$heldout" --out "$dir/relit" > "$dir/relight.log" 2>&1 &&
+    # shellcheck disable=SC2086  # RELIGHT_OPTIONS holds several words
+    "$SVBRDF" relight "$dir/material" "$heldout" --out "$dir/relit" $RELIGHT_OPTIONS > "$dir/relight.log" 2>&1 &&
       "$SVBRDF" evaluate "$dir/relit" "$heldout" > "$dir/evaluate.txt" 2>&1 || true
     rm -rf "$dir/relit"
   fi
@@ -57,7 +64,8 @@ for line in open(os.path.join(out, "captures.txt")):
         continue
     name = os.path.basename(os.path.dirname(scene))
     d = os.path.join(out, name)
-    row = {"capture": name, "scene": scene, "exit_code": None}
+    row = {"capture": name, "scene": scene, "exit_code": None,
+           "relight_options": os.environ.get("RELIGHT_OPTIONS", "")}
     try:
         row["exit_code"] = int(open(os.path.join(d, "exit_code")).read())
     except (OSError, ValueError):
@@ -88,6 +96,7 @@ for line in open(os.path.join(out, "captures.txt")):
 json.dump(rows, open(os.path.join(out, "summary.json"), "w"), indent=2)
 fmt = lambda v, f: "" if v is None else f % v
 L = ["# Batch reconstruction summary", "",
+     "Held-out PSNR of `svbrdf relight %s`." % os.environ.get("RELIGHT_OPTIONS", ""), "",
      "| capture | exit | clusters | held-out PSNR (dB) | wall (s) | CPU (s) | peak (MB) |",
      "|---|---:|---:|---:|---:|---:|---:|"]
 for r in rows:
@@ -121,6 +130,7 @@ mkdir -p "$2"
 out="$(cd "$2" && pwd)"
 shift 2
 mode=auto partition="" time_limit=30 max_parallel=""
+export RELIGHT_OPTIONS="${RELIGHT_OPTIONS:---spp 4}"
 while [ $# -gt 0 ]; do
   case "$1" in
     --local) mode=local; shift;;
@@ -128,6 +138,7 @@ while [ $# -gt 0 ]; do
     --partition) partition="$2"; shift 2;;
     --time-limit) time_limit="$2"; shift 2;;
     --max-parallel) max_parallel="$2"; shift 2;;
+    --relight) RELIGHT_OPTIONS="$2"; shift 2;;
     --) shift; break;;
     -h|--help) usage 0;;
     *) echo "batch: unknown option $1 (reconstruct options go after --)" >&2; exit 2;;

@@ -4,12 +4,16 @@
 
 #include <algorithm>
 #include <random>
+#include <map>
 #include <set>
 
 #include "cluster/clustering.h"
 #include "cluster/holdout.h"
+#include "cluster/model_selection.h"
 #include "cluster/nnls.h"
 #include "cluster/reconstruct.h"
+#include "cluster/split.h"
+#include "cluster/stats.h"
 #include "cluster/weights.h"
 #include "core/error.h"
 #include "core/rng.h"
@@ -209,6 +213,27 @@ TEST(Cluster, PartitionKeyIgnoresClusterNumbering) {
   EXPECT_NE(PartitionKey({0, 0, 0}), PartitionKey({0, 0, 1}));
 }
 
+// The split test's coherence (SplitCoherence): halves that are regions
+// score near 1, labels interleaved texel by texel (checkerboard, random)
+// near 0 or below, whatever the proportions.
+TEST(Cluster, SplitCoherenceTellsRegionsFromInterleavedLabels) {
+  const int n = 20;
+  const SampleSet s = MakeSamples({Lambert(0.5, 0.5, 0.5)}, std::vector<int>(n * n, 0), 61);
+  const ReconstructOptions o = Quiet();
+  Clustering cl(s, GridAtlas(n, n), o);
+  const std::vector<int> side(n * n, 1);
+  auto coherence = [&](auto label_of) {
+    for (int t = 0; t < n * n; ++t) cl.assign()[t] = label_of(t % n, t / n);
+    return SplitCoherence(cl, side);
+  };
+  EXPECT_GT(coherence([](int x, int) { return x < 10 ? 0 : 1; }), 0.85);
+  EXPECT_GT(coherence([](int x, int y) { return x >= 4 && x < 8 && y >= 4 && y < 16 ? 1 : 0; }), 0.7);  // a 4-texel stripe
+  EXPECT_LT(coherence([](int x, int y) { return (x + y) % 2; }), 0.1);
+  std::mt19937 rng(5);
+  EXPECT_LT(std::abs(coherence([&](int, int) { return int(rng() % 3 == 0); })), 0.15);
+  EXPECT_EQ(coherence([](int, int) { return 0; }), 1.0);  // one label: nothing split
+}
+
 // Two colours, but no split is ever good enough (min_z out of reach): the
 // search backtracks and tries the next feature set, and the colour-only
 // features give the same halves as all features. That state must not be
@@ -397,6 +422,69 @@ TEST(Cluster, ModelChoiceWithoutHeldOutSamples) {
 // One hold-out rule for every stage (clustering, model choice, normal
 // refinement): whole photos, the share asked for, deterministic for a seed,
 // none when there is one photo.
+// Parameters by name (the fitted values of a candidate).
+std::vector<double> ParamsOf(const ModelSpec& spec, const std::map<std::string, double>& values) {
+  std::vector<double> p = spec.InitialParams();
+  const auto info = spec.Params();
+  for (size_t i = 0; i < info.size(); ++i)
+    if (values.count(info[i].name)) p[i] = values.at(info[i].name);
+  return p;
+}
+
+TEST(ModelChoice, FitsAtTheirBoundsAreRecognised) {
+  const ModelSpec ct = ModelSpec::FromLabel("cook_torrance-beckmann");
+  const std::map<std::string, double> plastic = {{"rd_r", 0.5}, {"rd_g", 0.1}, {"rd_b", 0.1}, {"rs_r", 0.3},
+                                                 {"rs_g", 0.3}, {"rs_b", 0.3}, {"roughness", 0.2}, {"ior", 1.5}};
+  EXPECT_FALSE(FitAtBound(ct, ParamsOf(ct, plastic)));
+  auto with = [&](const std::string& name, double v) {
+    std::map<std::string, double> m = plastic;
+    m[name] = v;
+    return ParamsOf(ct, m);
+  };
+  double ior_max = 0;
+  for (const ParamInfo& p : ct.Params())
+    if (p.name == "ior") ior_max = p.upper;
+  EXPECT_TRUE(FitAtBound(ct, with("ior", ior_max)));
+  EXPECT_FALSE(FitAtBound(ct, with("rs_g", 0.0)));  // a term switched off is not a bound the data push against
+}
+
+// The standard capture's near-tie: the clustering's Lafortune lobe against a
+// Cook-Torrance with one parameter fewer whose ior sits at its bound, equal
+// within the noise of the held-out errors. The tie goes to the fit that is
+// not at its bounds; without the bound to fewer parameters; a clearly better
+// fit wins even at its bound; equal models tie to the clustering's.
+TEST(ModelChoice, TiesGoToFitsInsideTheirBoundsThenFewerParametersThenTheIncumbent) {
+  const ModelSpec laf = ModelSpec::FromLabel("lafortune-1"), ct = ModelSpec::FromLabel("cook_torrance-beckmann"),
+                  ggx = ModelSpec::FromLabel("cook_torrance-ggx");
+  ASSERT_LT(ct.NumParams(), laf.NumParams());
+  double ior_max = 0;
+  for (const ParamInfo& p : ct.Params())
+    if (p.name == "ior") ior_max = p.upper;
+  Rng rng(5);
+  std::normal_distribution<double> g;
+  std::vector<double> e_laf(3000), e_tie(3000), e_better(3000);
+  for (size_t i = 0; i < e_laf.size(); ++i) {
+    e_laf[i] = Sq(0.015 * g(rng));
+    e_tie[i] = e_laf[i] * (1.0 + 0.2 * g(rng));  // the same up to noise
+    e_better[i] = 0.25 * e_laf[i];
+  }
+  auto rmse = [](const std::vector<double>& e) { return TrimmedRmse(e); };
+  const std::vector<double> p_laf = ParamsOf(laf, {{"lobe0.n", 20.0}});
+  const std::vector<double> ct_pinned = ParamsOf(ct, {{"ior", ior_max}, {"roughness", 0.2}});
+  const std::vector<double> ct_inside = ParamsOf(ct, {{"ior", 1.5}, {"roughness", 0.2}});
+  ASSERT_FALSE(FitAtBound(laf, p_laf));
+  const double margin = 0.001 * 0.2, min_z = 1.0;
+  std::vector<ModelCandidate> c = {{laf, p_laf, rmse(e_laf), e_laf}, {ct, ct_pinned, rmse(e_tie), e_tie}};
+  EXPECT_EQ(ChooseModel(c, laf, margin, min_z), 0u);
+  c[1].params = ct_inside;
+  EXPECT_EQ(ChooseModel(c, laf, margin, min_z), 1u);
+  c[1] = {ct, ct_pinned, rmse(e_better), e_better};
+  EXPECT_EQ(ChooseModel(c, laf, margin, min_z), 1u);
+  std::vector<ModelCandidate> same = {{ct, ct_inside, rmse(e_laf), e_laf}, {ggx, ct_inside, rmse(e_tie), e_tie}};
+  EXPECT_EQ(ChooseModel(same, ggx, margin, min_z), 1u);
+  EXPECT_EQ(ChooseModel(same, ct, margin, min_z), 0u);
+}
+
 TEST(Cluster, HeldOutPhotosFollowOneRule) {
   const std::vector<char> a = HeldOutImages(40, 0.2, 7), b = HeldOutImages(40, 0.2, 7), c = HeldOutImages(40, 0.2, 8);
   EXPECT_EQ(a, b);

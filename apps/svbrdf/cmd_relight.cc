@@ -24,6 +24,10 @@ void RegisterRelight(CLI::App& app, Runner* run) {
   c->add_option("scene", a->scene, "scene.json giving views and lights")->required();
   c->add_option("--out", a->out, "output folder")->required();
   c->add_option("--spp", a->options.samples_per_pixel, "supersampling: n x n samples per pixel (1 = pixel centre)");
+  c->add_option("--bounces", a->options.bounces,
+                "indirect light: path-traced surface bounces after the first hit (0 = direct only, the default);\n"
+                "to score against photos of objects that light themselves (concave shapes, real captures)");
+  c->add_option("--bounce-samples", a->options.bounce_samples, "--bounces: indirect paths per pixel sample");
   c->add_option("--threads", a->options.threads, "worker threads (0 = all cores)");
   c->add_option("--seed", a->options.seed, "seed of the supersampling jitter");
   c->add_flag("--preview", a->options.png_preview, "also write sRGB PNG previews");

@@ -5,6 +5,7 @@
 #include <map>
 #include <set>
 #include <string>
+#include <tuple>
 
 #include "cluster/stats.h"
 #include "core/error.h"
@@ -103,6 +104,49 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
 
 }  // namespace
 
+bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params) {
+  const std::vector<ParamInfo> info = spec.Params();
+  for (size_t i = 0; i < info.size() && i < params.size(); ++i) {
+    const double tol = 1e-3 * (info[i].upper - info[i].lower);
+    if (params[i] >= info[i].upper - tol) return true;
+    if (!info[i].linear && params[i] <= info[i].lower + tol) return true;
+  }
+  return false;
+}
+
+size_t ChooseModel(const std::vector<ModelCandidate>& c, const ModelSpec& incumbent, double margin, double min_z) {
+  if (c.empty()) throw Error("ChooseModel: no candidates");
+  size_t best = 0;
+  for (size_t j = 0; j < c.size(); ++j)
+    if (c[j].rmse < c[best].rmse) best = j;
+  // The same trimming as TrimmedRmse for the paired test: samples among the
+  // worst 2 % under the best model (misassigned texels) are left out.
+  const std::vector<double>& eb = c[best].errors;
+  std::vector<char> keep(eb.size(), 1);
+  if (!eb.empty()) {
+    std::vector<double> sorted = eb;
+    const size_t cut = sorted.size() - 1 - sorted.size() / 50;
+    std::nth_element(sorted.begin(), sorted.begin() + cut, sorted.end());
+    for (size_t i = 0; i < eb.size(); ++i) keep[i] = eb[i] <= sorted[cut];
+  }
+  auto trimmed = [&](const std::vector<double>& e) {
+    std::vector<double> out;
+    for (size_t i = 0; i < e.size() && i < keep.size(); ++i)
+      if (keep[i]) out.push_back(e[i]);
+    return out;
+  };
+  const std::vector<double> trimmed_best = trimmed(eb);
+  auto key = [&](size_t j) {
+    return std::make_tuple(FitAtBound(c[j].spec, c[j].params), c[j].spec.NumParams(), !(c[j].spec == incumbent), c[j].rmse);
+  };
+  size_t chosen = best;
+  for (size_t j = 0; j < c.size(); ++j) {
+    const bool clearly_worse = c[j].rmse - c[best].rmse > margin && PairedZ(trimmed(c[j].errors), trimmed_best) >= min_z;
+    if (!clearly_worse && key(j) < key(chosen)) chosen = j;
+  }
+  return chosen;
+}
+
 void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
@@ -137,35 +181,20 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
     });
     // The fewest parameters unless the best model is better by `parsimony`
     // of the signal's RMS (a difference that shows in a picture) and by
-    // `model_min_z` standard errors (paired over held-out samples).
-    size_t best = finalists[0];
-    for (size_t j : finalists)
-      if (tried[j].rmse < tried[best].rmse) best = j;
-    // The same trimming as TrimmedRmse for the paired test: samples among the
-    // worst 2 % under the best model (misassigned texels) are left out.
-    std::vector<char> keep(hold.size(), 1);
-    if (!hold.empty()) {
-      std::vector<double> sorted = tried[best].errors;
-      const size_t cut = sorted.size() - 1 - sorted.size() / 50;
-      std::nth_element(sorted.begin(), sorted.begin() + cut, sorted.end());
-      for (size_t i = 0; i < hold.size(); ++i) keep[i] = tried[best].errors[i] <= sorted[cut];
-    }
-    auto trimmed = [&](const std::vector<double>& e) {
-      std::vector<double> out;
-      for (size_t i = 0; i < e.size(); ++i)
-        if (keep[i]) out.push_back(e[i]);
-      return out;
-    };
-    int chosen = int(best);
-    for (size_t j : finalists) {
-      const bool clearly_worse = tried[j].rmse - tried[best].rmse > o.parsimony * signal &&
-                                 PairedZ(trimmed(tried[j].errors), trimmed(tried[best].errors)) >= o.model_min_z;
-      if (!clearly_worse && tried[j].spec.NumParams() < tried[chosen].spec.NumParams()) chosen = int(j);
-    }
+    // `model_min_z` standard errors (paired over held-out samples); fits at
+    // their bounds only when clearly better (ChooseModel).
+    std::vector<ModelCandidate> final_candidates;
+    for (size_t j : finalists) final_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
+    const int chosen = int(finalists[ChooseModel(final_candidates, cl.basis()[k].spec, o.parsimony * signal, o.model_min_z)]);
     for (size_t j = 0; j < tried.size(); ++j)
       est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen,
                                    tried[j].final});
-    log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse, ")"));
+    std::string others;
+    for (size_t j : finalists)
+      if (int(j) != chosen)
+        others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, FitAtBound(tried[j].spec, tried[j].fit.params) ? " at a bound" : "");
+    log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse,
+            FitAtBound(tried[chosen].spec, tried[chosen].fit.params) ? " at a bound" : "", "; finalists", others, ")"));
     cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
   }
 }

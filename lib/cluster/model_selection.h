@@ -24,6 +24,35 @@ FitOptions ScreeningFitOptions(const ReconstructOptions& o, const std::string& c
 // The fallback above: moves whole training photos from `train` to `hold`.
 void ValidationFromTraining(const Clustering& cl, std::vector<int64_t>* train, std::vector<int64_t>* hold);
 
+// A fitted candidate model of one cluster, with its errors on the
+// validation samples (per sample, summed over channels; the same samples
+// for every candidate) and their trimmed RMSE.
+struct ModelCandidate {
+  ModelSpec spec;
+  std::vector<double> params;
+  double rmse = 0;
+  std::vector<double> errors;
+};
+
+// Whether a fit leans on its model's bounds: a shape parameter within 0.1 %
+// of its range from either bound (an ior at 3, a roughness at its minimum),
+// or an amplitude at its upper bound. An amplitude at 0 is a term switched
+// off, not a bound the data push against.
+bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params);
+
+// The choice among fully fitted candidates. A candidate is "clearly worse"
+// than the one with the lowest RMSE when its RMSE is higher by `margin` and
+// by `min_z` standard errors (paired over samples, the best's worst 2 %
+// left out); among the others (ties within the noise of the held-out
+// estimate) the choice prefers, in this order: a fit not at its bounds (a
+// model that needs a bound to reach the data extrapolates where the data
+// end: seen on the standard capture, a Cook-Torrance with ior pinned at 3
+// tied with the clustering's Lafortune lobe and lost 7 dB on the worst
+// held-out view), fewer parameters, the `incumbent` model (the clustering's:
+// its clusters were made with it), the lower RMSE.
+size_t ChooseModel(const std::vector<ModelCandidate>& candidates, const ModelSpec& incumbent, double margin,
+                   double min_z);
+
 void SelectModels(Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
 
 }  // namespace svbrdf

@@ -91,6 +91,18 @@ struct ReconstructOptions {
   // error (large drop, control nearly as good) still fail.
   bool control_split = true;
   double control_min_share = 1.0 / 3.0;
+  // A split must leave regions, not a salt-and-pepper pattern: the share of
+  // 8-neighbour pairs of the split cluster's texels whose labels differ,
+  // relative to that share under random labels of the same proportions,
+  // must be at most 1 - min_split_coherence. Halves interleaved texel by
+  // texel are texels that both materials explain about equally (model error
+  // specialised to the directions each texel saw, e.g. the copper of the
+  // Mitsuba sphere split 4202/2596 at coherence 0.49-0.57 after the
+  // refinement's neighbour pooling), not two materials; such a split is
+  // undone without looking a split further. Clean material splits measured
+  // 0.97-0.99; a stripe w texels wide inside another region scores about
+  // 1 - 0.75/w, so 0.7 keeps regions >= 3 texels wide. 0 = off.
+  double min_split_coherence = 0.7;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels

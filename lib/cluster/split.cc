@@ -134,6 +134,24 @@ std::vector<ModelSpec> SplitModels(const ReconstructOptions& o) {
   return specs;
 }
 
+double SplitCoherence(const Clustering& cl, const std::vector<int>& side) {
+  const std::vector<int>& label = cl.assign();
+  std::vector<double> count;
+  double pairs = 0, differ = 0, n = 0;
+  for (int t = 0; t < cl.num_texels(); ++t) {
+    if (side[t] == 0 || !cl.usable()[t] || label[t] < 0) continue;
+    if (label[t] >= int(count.size())) count.resize(label[t] + 1, 0.0);
+    count[label[t]] += 1, n += 1;
+    for (int u : cl.neighbours()[t])
+      if (side[u] != 0 && cl.usable()[u] && label[u] >= 0) pairs += 1, differ += label[u] != label[t];
+  }
+  double same = 0;
+  for (double c : count) same += (c / std::max(1.0, n)) * (c / std::max(1.0, n));
+  const double expected = 1.0 - same;
+  if (pairs == 0 || expected <= 1e-12) return 1.0;
+  return 1.0 - (differ / pairs) / expected;
+}
+
 BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
   const ReconstructOptions& o = cl.options();
   const std::vector<ModelSpec> specs = SplitModels(o);

@@ -45,6 +45,13 @@ std::vector<ModelSpec> SplitModels(const ReconstructOptions& o);
 // dielectric half a coat, whatever the parent was.
 BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent);
 
+// Spatial coherence of the current labels on the texels where `side` != 0
+// (a split cluster's texels): 1 - (share of their 8-neighbour pairs with
+// different labels) / (that share under random labels of the same
+// proportions). ~1: regions with short borders; ~0: labels interleaved
+// texel by texel. 1 when the texels carry a single label.
+double SplitCoherence(const Clustering& cl, const std::vector<int>& side);
+
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`.

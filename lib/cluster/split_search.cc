@@ -124,7 +124,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       if (undo()) break;
       continue;
     }
-    const double h = cl.HeldoutRmse(false, &texel_sse);
+    double h = cl.HeldoutRmse(false, &texel_sse);
     step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
     // Paired tests over texels: on the squared errors (dominated by the
@@ -133,7 +133,20 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const double z = std::max(PairedZ(states[best_state].texel_sse, texel_sse),
                               BoundedPairedZ(states[best_state].texel_sse, texel_sse));
     bool passes = drop >= o.min_improvement && z >= o.min_z;
+    bool interleaved = false;  // fails the coherence test: no look-ahead past it
     std::string control_note;
+    if (passes && o.force_clusters == 0 && o.min_split_coherence > 0) {
+      // Materials form regions (SplitCoherence); halves interleaved texel by
+      // texel are one material that both fits explain about equally.
+      const double coherence = SplitCoherence(cl, side);
+      if (coherence < o.min_split_coherence) {
+        passes = false;
+        interleaved = true;
+        control_note = Msg("; halves interleaved (coherence ", coherence, "): not materials");
+      } else {
+        control_note = Msg("; coherence ", coherence);
+      }
+    }
     if (passes && honest_test) {
       // Honest stopping: when the residuals are dominated by model error
       // (no candidate describes the region), any split lets the halves'
@@ -153,12 +166,12 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const double gain = 1.0 - sc / std::max(1e-300, sn);
       const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
       passes = gain >= std::min(o.min_improvement, o.control_min_share * drop) && zc >= o.min_z;
-      control_note = Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc, passes ? "" : ": model error, not materials");
+      control_note += Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc, passes ? "" : ": model error, not materials");
     }
     est.history.push_back({cl.K(), cl.TrainRmse(), h, false, key});
     std::string sizes;
     for (int j = 0; j < cl.K(); ++j)
-      sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j));
+      sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j), " ", cl.basis()[j].spec.Label());
     log(Msg(cl.K(), " clusters (", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
             " % below the best so far, z = ", z, control_note, ")"));
     if (o.force_clusters > 0 || passes) {
@@ -168,7 +181,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       fails = 0;
       lookahead = false;
       std::fill(variants_tried.begin(), variants_tried.end(), 0);
-    } else if (!lookahead && cl.K() < target) {
+    } else if (!lookahead && !interleaved && cl.K() < target) {
       // Look one split ahead before giving up: splitting 3 materials into 2
       // clusters can be worse than 1 cluster (a colour mixed into the wrong
       // basis), while the next split separates them.

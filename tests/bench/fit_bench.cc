@@ -36,6 +36,10 @@ BENCHMARK_CAPTURE(BM_Fit, lafortune_2, "lafortune-2",
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Fit, cook_torrance_beckmann, "cook_torrance-beckmann", {0.4, 0.3, 0.2, 0.5, 0.4, 0.3, 0.2, 1.6})
     ->Unit(benchmark::kMillisecond);
+// The split models (every cluster of the split search fits them).
+BENCHMARK_CAPTURE(BM_Fit, coated_ggx, "coated-ggx", {0.5, 0.1, 0.08, 0.15, 1.5})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Fit, conductor_ggx_schlick, "conductor-ggx-schlick", {0.95, 0.64, 0.54, 0.2})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace svbrdf
