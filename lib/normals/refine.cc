@@ -491,7 +491,14 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     out.heldout_rmse_mesh = std::sqrt(sse_mesh / std::max<int64_t>(1, n_mesh));
     // The error of the chosen normals (refined where kept, mesh elsewhere).
     out.heldout_rmse_refined = std::sqrt(sse_chosen / std::max<int64_t>(1, n_mesh));
-    out.kept = std::find(out.material_kept.begin(), out.material_kept.end(), 1) != out.material_kept.end();
+    // And the chosen normals must lower the held-out error of all texels by
+    // min_improvement too: a material kept by a hair (noise in its few
+    // decision texels) is not worth a normal map.
+    out.kept = std::find(out.material_kept.begin(), out.material_kept.end(), 1) != out.material_kept.end() &&
+               sse_chosen < (1.0 - o.min_improvement) * sse_mesh;
+    if (!out.kept) {
+      std::fill(out.material_kept.begin(), out.material_kept.end(), 0);
+    }
     // Only the texels of kept materials are fitted on all photos.
     std::vector<int> kept_texels;
     for (int t : texels)

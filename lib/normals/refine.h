@@ -34,7 +34,8 @@
 // weight), the refined normals are kept only if that material's held-out
 // squared error drops by `min_improvement` (relative): one material whose
 // normals the data cannot place (a glossy lobe seen by few samples) must not
-// cost the others theirs. The kept materials' normals are then fitted on
+// cost the others theirs; the chosen normals must lower the error of all
+// decision texels by `min_improvement` as well. The kept materials' normals are then fitted on
 // all samples; the other texels keep the mesh normal. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
