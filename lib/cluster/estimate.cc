@@ -37,7 +37,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   const double first_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   cl.stage = "split";
   if (o.SecondsLeft() > 4 * first_fit_seconds) {
-    SearchClusters(cl, &est, log);
+    SearchClusters(cl, &est, log, 4 * first_fit_seconds);
   } else {
     est.cut_by_deadline.push_back("split search");
     log(Msg("time budget: no time for a split (", o.SecondsLeft(), " s left)"));

@@ -54,7 +54,9 @@ double SplitCoherence(const Clustering& cl, const std::vector<int>& side);
 
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
-// the chosen state and appends to `est->history`.
-void SearchClusters(Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
+// the chosen state and appends to `est->history`. `first_step_seconds`:
+// the expected duration of the first split step (ReconstructOptions::deadline:
+// a step is not started without that much time left).
+void SearchClusters(Clustering& cl, SvbrdfEstimate* est, const StageLog& log, double first_step_seconds = 0);
 
 }  // namespace svbrdf

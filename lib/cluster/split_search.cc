@@ -28,7 +28,7 @@ void SplitCluster(Clustering& cl, int k, const std::vector<int>& side) {
 
 }  // namespace
 
-void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
+void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, double first_step_seconds) {
   const ReconstructOptions& o = cl.options();
   SvbrdfEstimate& est = *est_out;
   const double heldout = est.history.back().heldout_rmse;
@@ -60,7 +60,18 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
   int fails = 0;
   bool lookahead = false;  // the current state is one unaccepted split past the best
   int root_cluster = 0;    // the cluster of the best state whose split is being looked past
-  double step_seconds = 0;  // duration of the last split (Anytime: ReconstructOptions::deadline)
+  // Duration of the last split (Anytime: ReconstructOptions::deadline); the
+  // caller's estimate before the first.
+  double step_seconds = first_step_seconds;
+  // Anytime: a split step whose time ran out midway (a slow first step, a
+  // loaded machine) is undone at the next check instead of being finished
+  // (the best state is restored below).
+  auto out_of_time = [&] {
+    if (o.SecondsLeft() > 0) return false;
+    est.cut_by_deadline.push_back("split search");
+    log("time budget: split step stopped midway (undone)");
+    return true;
+  };
   while (cl.K() < target) {
     if (o.SecondsLeft() < step_seconds) {
       est.cut_by_deadline.push_back("split search");
@@ -115,8 +126,10 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     std::vector<double> candidate_sse, control_sse;
     const bool honest_test = o.force_clusters == 0 && o.control_split;
     const bool refine_control = lookahead;
+    if (out_of_time()) break;
     if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
     Refine(cl, o.refine_iterations, true);
+    if (out_of_time()) break;
     const uint64_t key = PartitionKey(cl.assign());
     if (!evaluated.insert(key).second) {
       ++est.states_revisited;
@@ -155,6 +168,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
       restore(parent);
       SplitCluster(cl, k, GeometrySplitSides(cl, k));
+      if (out_of_time()) break;
       if (refine_control) {
         Refine(cl, o.refine_iterations);
         candidate_sse = texel_sse;

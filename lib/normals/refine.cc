@@ -303,7 +303,8 @@ class Refiner {
   // `texels`), fitting samples of kind `which` (0 training, 2 all). With
   // `refine` false only the weights are solved (mesh normals). Each pass
   // solves all normals from the previous weights, then all weights (Jacobi:
-  // the result does not depend on the thread count). Returns sigma.
+  // the result does not depend on the thread count). Returns sigma, or a
+  // negative value when the deadline (NormalOptions) came before a pass.
   double Run(const std::vector<int>& texels, int which, bool refine, const std::vector<Vec2>* start, State* st,
              Progress* progress) const {
     const long n = long(texels.size());
@@ -330,6 +331,7 @@ class Refiner {
     double sigma = Sigma(texels, which, *st);
     if (!refine) return sigma;
     for (int it = 0; it < o_.iterations; ++it) {
+      if (std::chrono::steady_clock::now() > o_.deadline) return -1.0;
       const double robust_mult = std::pow(o_.robust_growth, o_.iterations - 1 - it);
       const std::vector<double> ab_before = st->ab;  // read by neighbours while st->ab is written
       auto tilt_of = [&](int u) {
@@ -453,7 +455,13 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     out.decision_texels = long(candidates.size());
     State mesh = MakeState(candidates.size(), K), tilted = MakeState(candidates.size(), K);
     r.Run(candidates, 0, false, nullptr, &mesh, nullptr);
-    r.Run(candidates, 0, true, start, &tilted, &progress);
+    // Anytime: a decision stopped by the deadline keeps the mesh normals.
+    if (r.Run(candidates, 0, true, start, &tilted, &progress) < 0) {
+      out.kept = false;
+      out.cut_by_deadline = true;
+      progress.Finish();
+      return out;
+    }
     // Per basis material (the texel's largest weight): refined normals are
     // kept for the texels of the materials whose held-out error they lower.
     // A material whose normals the data cannot locate (a glossy lobe seen by
@@ -483,7 +491,14 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     out.heldout_rmse_mesh = std::sqrt(sse_mesh / std::max<int64_t>(1, n_mesh));
     // The error of the chosen normals (refined where kept, mesh elsewhere).
     out.heldout_rmse_refined = std::sqrt(sse_chosen / std::max<int64_t>(1, n_mesh));
-    out.kept = std::find(out.material_kept.begin(), out.material_kept.end(), 1) != out.material_kept.end();
+    // And the chosen normals must lower the held-out error of all texels by
+    // min_improvement too: a material kept by a hair (noise in its few
+    // decision texels) is not worth a normal map.
+    out.kept = std::find(out.material_kept.begin(), out.material_kept.end(), 1) != out.material_kept.end() &&
+               sse_chosen < (1.0 - o.min_improvement) * sse_mesh;
+    if (!out.kept) {
+      std::fill(out.material_kept.begin(), out.material_kept.end(), 0);
+    }
     // Only the texels of kept materials are fitted on all photos.
     std::vector<int> kept_texels;
     for (int t : texels)
@@ -509,6 +524,13 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
   State st = MakeState(texels.size(), K);
   out.noise_sigma = r.Run(texels, 2, true, start, &st, &progress);
   progress.Finish();
+  if (out.noise_sigma < 0) {  // stopped by the deadline: nothing kept
+    out.kept = false;
+    std::fill(out.material_kept.begin(), out.material_kept.end(), 0);
+    out.cut_by_deadline = true;
+    out.noise_sigma = 0;
+    return out;
+  }
   std::vector<double> tilt;
   for (size_t j = 0; j < texels.size(); ++j) {
     const int t = texels[j];

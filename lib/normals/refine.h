@@ -34,7 +34,8 @@
 // weight), the refined normals are kept only if that material's held-out
 // squared error drops by `min_improvement` (relative): one material whose
 // normals the data cannot place (a glossy lobe seen by few samples) must not
-// cost the others theirs. The kept materials' normals are then fitted on
+// cost the others theirs; the chosen normals must lower the error of all
+// decision texels by `min_improvement` as well. The kept materials' normals are then fitted on
 // all samples; the other texels keep the mesh normal. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
@@ -100,7 +101,8 @@ struct NormalOptions {
   bool progress = true;
   // Anytime (reconstruct --time-budget): when the held-out decision took
   // so long that the fit on all texels (estimated from it) would end after
-  // this, the refinement is not kept (cut_by_deadline) instead of overrunning.
+  // this, the refinement is not kept (cut_by_deadline) instead of overrunning;
+  // the decision and the fit also stop before a pass that would start after it.
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
   void Check() const;
   bool Enabled() const { return mode != "off"; }
@@ -122,7 +124,7 @@ struct NormalRefinement {
   double heldout_rmse_refined = 0;  // ... and with the chosen normals (refined for kept materials, mesh elsewhere)
   long decision_texels = 0;
   double mean_tilt_deg = 0, median_tilt_deg = 0;  // of refined texels, from the mesh normal
-  bool cut_by_deadline = false;     // kept by the decision, but no time left for the fit on all texels
+  bool cut_by_deadline = false;     // not kept for lack of time: the deadline came during the decision or the fit, or the fit on all texels would end after it
   std::string Report() const;
 };
 

@@ -139,7 +139,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     timer.Start("refine normals");
     nr = RefineNormals(g.samples, g.atlas, est, no);
     std::fprintf(stderr, "  %s\n", nr.Report().c_str());
-    if (nr.cut_by_deadline) est.cut_by_deadline.push_back("normal refinement (kept by the decision, no time for all texels)");
+    if (nr.cut_by_deadline) est.cut_by_deadline.push_back("normal refinement (not kept: no time to finish it)");
     normals_rounds.push_back(NormalsJson(nr, est));
     const bool recluster_fits = eo.SecondsLeft() > cluster_seconds;
     if (nr.kept && no.recluster && !recluster_fits) est.cut_by_deadline.push_back("second clustering");
