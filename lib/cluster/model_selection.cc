@@ -137,7 +137,7 @@ size_t ChooseModel(const std::vector<ModelCandidate>& c, const ModelSpec& incumb
   };
   const std::vector<double> trimmed_best = trimmed(eb);
   auto key = [&](size_t j) {
-    return std::make_tuple(!(c[j].spec == incumbent), FitAtBound(c[j].spec, c[j].params), c[j].spec.NumParams(), c[j].rmse);
+    return std::make_tuple(FitAtBound(c[j].spec, c[j].params), c[j].spec.NumParams(), !(c[j].spec == incumbent), c[j].rmse);
   };
   size_t chosen = best;
   for (size_t j = 0; j < c.size(); ++j) {
