@@ -419,9 +419,6 @@ TEST(Cluster, ModelChoiceWithoutHeldOutSamples) {
   EXPECT_EQ(est.basis[est.label[50]].spec.Label(), "lambert");
 }
 
-// One hold-out rule for every stage (clustering, model choice, normal
-// refinement): whole photos, the share asked for, deterministic for a seed,
-// none when there is one photo.
 // Parameters by name (the fitted values of a candidate).
 std::vector<double> ParamsOf(const ModelSpec& spec, const std::map<std::string, double>& values) {
   std::vector<double> p = spec.InitialParams();
@@ -429,6 +426,14 @@ std::vector<double> ParamsOf(const ModelSpec& spec, const std::map<std::string, 
   for (size_t i = 0; i < info.size(); ++i)
     if (values.count(info[i].name)) p[i] = values.at(info[i].name);
   return p;
+}
+
+// The upper bound of a model's parameter, by name.
+double UpperBound(const ModelSpec& spec, const std::string& name) {
+  for (const ParamInfo& p : spec.Params())
+    if (p.name == name) return p.upper;
+  ADD_FAILURE() << spec.Label() << " has no parameter " << name;
+  return 0;
 }
 
 TEST(ModelChoice, FitsAtTheirBoundsAreRecognised) {
@@ -441,9 +446,7 @@ TEST(ModelChoice, FitsAtTheirBoundsAreRecognised) {
     m[name] = v;
     return ParamsOf(ct, m);
   };
-  double ior_max = 0;
-  for (const ParamInfo& p : ct.Params())
-    if (p.name == "ior") ior_max = p.upper;
+  const double ior_max = UpperBound(ct, "ior");
   EXPECT_TRUE(FitAtBound(ct, with("ior", ior_max)));
   EXPECT_FALSE(FitAtBound(ct, with("rs_g", 0.0)));  // a term switched off is not a bound the data push against
 }
@@ -457,9 +460,7 @@ TEST(ModelChoice, TiesGoToFitsInsideTheirBoundsThenFewerParametersThenTheIncumbe
   const ModelSpec laf = ModelSpec::FromLabel("lafortune-1"), ct = ModelSpec::FromLabel("cook_torrance-beckmann"),
                   ggx = ModelSpec::FromLabel("cook_torrance-ggx");
   ASSERT_LT(ct.NumParams(), laf.NumParams());
-  double ior_max = 0;
-  for (const ParamInfo& p : ct.Params())
-    if (p.name == "ior") ior_max = p.upper;
+  const double ior_max = UpperBound(ct, "ior");
   Rng rng(5);
   std::normal_distribution<double> g;
   std::vector<double> e_laf(3000), e_tie(3000), e_better(3000);
@@ -485,6 +486,9 @@ TEST(ModelChoice, TiesGoToFitsInsideTheirBoundsThenFewerParametersThenTheIncumbe
   EXPECT_EQ(ChooseModel(same, ct, margin, min_z), 0u);
 }
 
+// One hold-out rule for every stage (clustering, model choice, normal
+// refinement): whole photos, the share asked for, deterministic for a seed,
+// none when there is one photo.
 TEST(Cluster, HeldOutPhotosFollowOneRule) {
   const std::vector<char> a = HeldOutImages(40, 0.2, 7), b = HeldOutImages(40, 0.2, 7), c = HeldOutImages(40, 0.2, 8);
   EXPECT_EQ(a, b);

@@ -137,7 +137,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       if (undo()) break;
       continue;
     }
-    double h = cl.HeldoutRmse(false, &texel_sse);
+    const double h = cl.HeldoutRmse(false, &texel_sse);
     step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
     // Paired tests over texels: on the squared errors (dominated by the

@@ -180,10 +180,6 @@ void Clustering::FinalWeights(const WeightModel& m, std::vector<float>* weights,
   MixtureError(m, true, true, &n, weights, residual, nullptr, m.smooth ? &first : nullptr);
 }
 
-}  // namespace svbrdf
-
-namespace svbrdf {
-
 namespace {
 // Prior strengths of the final weights, in samples of each material's own
 // mean squared prediction: weak ridges that keep a texel's few samples from

@@ -351,15 +351,16 @@ class Refiner {
     return sigma;
   }
 
-  // Held-out squared error and channel count per texel (index j of `texels`).
+  // Held-out squared error and (when `count` is not null) channel count per
+  // texel (index j of `texels`).
   void HeldoutSse(const std::vector<int>& texels, const State& st, std::vector<double>* sse,
                   std::vector<int64_t>* count) const {
     sse->assign(texels.size(), 0.0);
-    count->assign(texels.size(), 0);
+    if (count) count->assign(texels.size(), 0);
     ParallelFor(long(texels.size()), o_.threads, [&](long j) {
       const std::vector<TexelSample> held = Samples(texels[j], 1);
       Residuals(texels[j], held, &st.ab[2 * j], &st.w[size_t(j) * K_ * 3], nullptr, &(*sse)[j]);
-      (*count)[j] = 3 * int64_t(held.size());
+      if (count) (*count)[j] = 3 * int64_t(held.size());
     }, 64);
   }
 
@@ -467,9 +468,9 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     // A material whose normals the data cannot locate (a glossy lobe seen by
     // too few samples, a wrong model) must not cost the others theirs.
     std::vector<double> sse_m, sse_t;
-    std::vector<int64_t> n_m, n_t;
+    std::vector<int64_t> n_m;  // the same held-out samples in both arms
     r.HeldoutSse(candidates, mesh, &sse_m, &n_m);
-    r.HeldoutSse(candidates, tilted, &sse_t, &n_t);
+    r.HeldoutSse(candidates, tilted, &sse_t, nullptr);
     std::vector<double> mat_mesh(K, 0.0), mat_tilted(K, 0.0);
     std::vector<int64_t> mat_count(K, 0);
     for (size_t j = 0; j < candidates.size(); ++j) {
