@@ -9,7 +9,8 @@
 // at `neighbour_weight` (others keep the mesh normal):
 //  1. Normal: minimise over (a, b) (tangent-plane parametrisation, normal_cost.h)
 //        sum_i v_i rho(|pred_i(a, b) - y_i|^2) + (sigma / tau)^2 (a^2 + b^2)
-//     by Levenberg-Marquardt (tilt_solver.h, Jet derivatives), the weights fixed; the
+//     by Levenberg-Marquardt (tilt_solver.h, Jet derivatives), each source's
+//     mixing weights solved at every trial tilt (joint_cost.h; `joint_weights`); the
 //     samples i are the texel's own (v = 1) and its 8 neighbours' expressed in
 //     its frame with their own weights (v = neighbour_weight): a texel sees a
 //     handful of photos, too few alone for a normal and its weights.
