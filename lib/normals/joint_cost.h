@@ -14,8 +14,8 @@
 // true normal (relative RMSE 0.6 %, a brute-force tilt fit on them gives
 // 0.995 of the true tilt). So here every source's weights (the texel's
 // and each neighbour's) are the least-squares optimum for the trial tilt
-// (its own samples, the same non-negative solve with the same weak prior
-// towards the clustering's weights as the weight step of refine.cc), and
+// (its own pooled samples, the non-negative solve of refine.cc's weight
+// step, with a weak prior towards the source's current weights), and
 // the tilt's Jacobian includes how the weights move with it (the weights
 // of the active set are differentiated through the linear solve).
 #pragma once
@@ -34,7 +34,7 @@ constexpr int kMaxSupport = 8;
 
 // One source of pooled samples whose weights are solved per trial tilt.
 struct WeightSource {
-  // Support materials; their `w` is the prior target (the clustering's weights).
+  // Support materials; their `w` is the prior target (the source's current weights).
   std::vector<WeightedBasis> basis;
   // Prior strength in samples' worth: lambda = prior trace(A) / (m n), as refine.cc's weight step.
   double prior = 1.0;
