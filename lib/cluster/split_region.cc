@@ -46,4 +46,15 @@ double RegionDrop(const std::vector<double>& before, const std::vector<double>& 
   return denominator > 0 ? (b_all - a_all) / denominator : 0.0;
 }
 
+double BoundedRegionDrop(const std::vector<double>& before, const std::vector<double>& after,
+                         const std::vector<char>& region) {
+  double sum = 0;
+  long n = 0;
+  const bool all = std::find(region.begin(), region.end(), char(1)) == region.end();
+  for (size_t t = 0; t < before.size(); ++t)
+    if ((all || (t < region.size() && region[t])) && before[t] + after[t] > 0)
+      sum += (before[t] - after[t]) / (before[t] + after[t]), ++n;
+  return n ? sum / n : 0.0;
+}
+
 }  // namespace svbrdf

@@ -35,4 +35,11 @@ std::vector<char> SplitRegion(const Clustering& cl, const std::vector<int>& befo
 // relative drop over all texels whenever the error drops.
 double RegionDrop(const std::vector<double>& before, const std::vector<double>& after, const std::vector<char>& region);
 
+// The typical per-texel drop on `region` (all texels when it selects none):
+// the mean of the bounded changes (before - after) / (before + after), in
+// [-1, 1], over texels with some error. Not dominated by the few texels with
+// the largest errors (highlights that a bump map moves).
+double BoundedRegionDrop(const std::vector<double>& before, const std::vector<double>& after,
+                         const std::vector<char>& region);
+
 }  // namespace svbrdf
