@@ -555,6 +555,15 @@ TEST(Cluster, SplitRegionIsWhatTheSplitTouches) {
   sse_after[0] = 250.0;
   EXPECT_NEAR(RegionDrop(sse_before, sse_after, r0), -50.0 / 300.0, 1e-9);
   EXPECT_NEAR(RegionDrop(sse_before, sse_after, std::vector<char>(n * n, 0)), -50.0 / 20200.0, 1e-9);  // empty region: all
+  // The typical per-texel drop: cluster 1's 200 texels halve their error,
+  // (1 - 0.5) / 1.5 each; the moved texel is unchanged. Not moved by the
+  // texel whose error grew outside the region.
+  EXPECT_NEAR(BoundedRegionDrop(sse_before, sse_after, r0), 200 * (0.5 / 1.5) / 201.0, 1e-9);
+  // One texel's squared error soaring (a highlight moved by a bump) outweighs
+  // the total, not the typical texel.
+  sse_after[n - 1] = 500.0;  // (19, 0): cluster 1
+  EXPECT_LT(RegionDrop(sse_before, sse_after, r0), 0.0);
+  EXPECT_GT(BoundedRegionDrop(sse_before, sse_after, r0), 0.3);
 }
 
 }  // namespace
