@@ -30,8 +30,9 @@ struct NormalAlternationOptions {
   // normals with the clustering's materials; up to this many rounds while
   // the held-out error drops. 0 = off. Captures whose refinement lowers no
   // material's error (no bumps: the default and standard presets) never
-  // start it.
-  int bootstrap_rounds = 3;
+  // start it. Measured on default_bump: 1 round 29.85 dB held-out (11.3 s
+  // CPU in all), 2 rounds 31.35 dB (15.4 s), 3 rounds 31.41 dB (19.0 s).
+  int bootstrap_rounds = 2;
   void Check() const;
 };
 

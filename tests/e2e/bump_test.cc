@@ -45,9 +45,8 @@ Outcome Reconstruct(const std::string& dir, const std::string& tag, int bootstra
 }
 
 // At test size (160x120, a 64-texel atlas): before the region drop and the
-// bounded drop the search stopped at 1 material (23.28 dB held-out);
-// measured 3 materials, 31.81 dB (truth relit at this size: see
-// bench_results/bump_default.md).
+// typical per-texel drop the search stopped at 1 material (23.28 dB
+// held-out); measured 3 materials, 31.81 dB.
 TEST(BumpMapped, SmallCaptureFindsTheThreeMaterials) {
   const std::string dir = (fs::temp_directory_path() / ("svbrdf_e2e_bump_small_" + std::to_string(getpid()))).string();
   fs::remove_all(dir);
@@ -64,11 +63,10 @@ TEST(BumpMapped, SmallCaptureFindsTheThreeMaterials) {
   fs::remove_all(dir);
 }
 
-// Measured (spp 1): 3 materials, normals kept after the bootstrap's rounds,
-// 31.4 dB held-out (truth relit: 42.9 dB; before the region drop the search
-// stopped at 2 materials, 23.9 dB; with 3 but without the bootstrap the
-// normals were rejected, 27.3 dB). At 160x120 or with a 64-texel atlas the
-// search still stops at 1-2 materials (see bench_results/bump_default.md).
+// The full-size capture at spp 1, measured: 3 materials, the first
+// refinement rejected, both bootstrap rounds kept, 31.62 dB held-out (18 s
+// CPU). Before: 2 materials, 23.9 dB (spp 2); with 3 materials but no
+// bootstrap the normals were rejected, 27.3 dB.
 TEST(BumpMapped, DefaultMaterialsRightCountAndNormalsPayOff) {
   const std::string dir = (fs::temp_directory_path() / ("svbrdf_e2e_bump_" + std::to_string(getpid()))).string();
   fs::remove_all(dir);
