@@ -90,7 +90,9 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
       est.cut_by_deadline.push_back("normals <-> materials bootstrap");
     } else {
       // Normals on every texel, whatever the decision said: the start of the
-      // alternation, decided on at its end.
+      // alternation, decided on at its end. Fitted on all photos, as the
+      // material rounds' starts are (the decision's arms refit from them on
+      // the training photos only).
       timer->Start("refine normals (bootstrap, every texel)");
       NormalOptions all = no;
       all.mode = "force";
