@@ -10,12 +10,14 @@ namespace svbrdf {
 
 void NormalAlternationOptions::Check() const {
   if (bootstrap_rounds < 0) throw Error(Msg("normal refinement: bootstrap rounds = ", bootstrap_rounds, ": must be >= 0"));
+  if (!(min_material_gain >= 0 && min_material_gain < 1))
+    throw Error(Msg("normal refinement: bootstrap min material gain = ", min_material_gain, ": must be in [0, 1)"));
 }
 
-bool SomeMaterialImproved(const NormalRefinement& nr, double min_improvement) {
+bool SomeMaterialImproved(const NormalRefinement& nr, double min_gain) {
   for (size_t k = 0; k < nr.heldout_rmse_mesh_by_material.size() && k < nr.heldout_rmse_refined_by_material.size(); ++k) {
     const double mesh = nr.heldout_rmse_mesh_by_material[k], refined = nr.heldout_rmse_refined_by_material[k];
-    if (mesh > 0 && refined * refined < (1.0 - min_improvement) * mesh * mesh) return true;
+    if (mesh > 0 && refined * refined < (1.0 - min_gain) * mesh * mesh) return true;
   }
   return false;
 }
@@ -83,7 +85,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
   // before any kept round is the mesh normals' (NormalRefinement).
   int material_rounds = no.material_rounds;
   const bool bootstrap = !nr.kept && no.mode == "on" && ao.bootstrap_rounds > 0 && !nr.cut_by_deadline &&
-                         SomeMaterialImproved(nr, no.min_improvement);
+                         SomeMaterialImproved(nr, ao.min_material_gain);
   std::vector<Vec2> start;  // tilts the next round's materials are refitted in
   if (bootstrap) {
     if (eo.SecondsLeft() <= cluster_seconds) {
