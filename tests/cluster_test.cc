@@ -14,6 +14,7 @@
 #include "cluster/nnls.h"
 #include "cluster/reconstruct.h"
 #include "cluster/split.h"
+#include "cluster/split_region.h"
 #include "cluster/stats.h"
 #include "cluster/weights.h"
 #include "core/error.h"
@@ -543,6 +544,63 @@ TEST(Cluster, RejectsBadOptions) {
   o = Quiet();
   o.candidate_models = {"no_such_model"};
   EXPECT_THROW(o.Check(), Error);
+}
+
+// The texels a split step can change (SplitRegion): on a 20 x 20 grid, the
+// left half cluster 0, the right half cluster 1; cluster 1 splits (its
+// bottom quarter becomes cluster 2) and the refinement also hands one border
+// texel of cluster 0 to cluster 2. The region is cluster 1 and that texel,
+// widened by the radius, not cluster 0 as a whole; the drop is measured
+// against the region's error, so a poorly explained cluster 0 with 100
+// times the error does not dilute the split's gain.
+TEST(Cluster, SplitRegionIsWhatTheSplitTouches) {
+  const int n = 20;
+  const SampleSet s = MakeSamples({Lambert(0.5, 0.5, 0.5)}, std::vector<int>(n * n, 0), 62);
+  const ReconstructOptions o = Quiet();
+  Clustering cl(s, GridAtlas(n, n), o);
+  std::vector<int> before(n * n), after(n * n);
+  for (int t = 0; t < n * n; ++t) {
+    const int x = t % n, y = t / n;
+    before[t] = x < 10 ? 0 : 1;
+    after[t] = x < 10 ? 0 : (y >= 15 ? 2 : 1);
+  }
+  const int moved = 5 * n + 9;  // (9, 5): cluster 0, next to cluster 1
+  after[moved] = 2;
+  const std::vector<char> r0 = SplitRegion(cl, before, 2, after, 0), r2 = SplitRegion(cl, before, 2, after, 2);
+  for (int t = 0; t < n * n; ++t) {
+    const int x = t % n, y = t / n;
+    EXPECT_EQ(bool(r0[t]), x >= 10 || t == moved) << x << "," << y;
+    // Widened: 2 steps (Chebyshev) around cluster 1 and the moved texel.
+    const bool near_moved = std::abs(x - 9) <= 2 && std::abs(y - 5) <= 2;
+    EXPECT_EQ(bool(r2[t]), x >= 8 || near_moved) << x << "," << y;
+  }
+  // Without new clusters (a refinement that only moved texels): those texels alone.
+  std::vector<int> shuffled(before);
+  shuffled[moved] = 1;
+  const std::vector<char> rm = SplitRegion(cl, before, 2, shuffled, 0);
+  EXPECT_EQ(std::count(rm.begin(), rm.end(), char(1)), 1);
+
+  std::vector<double> sse_before(n * n), sse_after(n * n);
+  for (int t = 0; t < n * n; ++t) {
+    sse_before[t] = before[t] == 0 ? 100.0 : 1.0;
+    sse_after[t] = before[t] == 0 ? 100.0 : 0.5;  // the split halves cluster 1's error
+  }
+  // Region: cluster 1 (error 200 in all) and the moved texel (100): 100 of 300.
+  EXPECT_NEAR(RegionDrop(sse_before, sse_after, r0), 100.0 / 300.0, 1e-9);
+  EXPECT_NEAR(RegionDrop(sse_before, sse_after, std::vector<char>(n * n, 1)), 100.0 / 20200.0, 1e-9);  // diluted
+  // Changes outside the region (a refit cluster) count in the numerator.
+  sse_after[0] = 250.0;
+  EXPECT_NEAR(RegionDrop(sse_before, sse_after, r0), -50.0 / 300.0, 1e-9);
+  EXPECT_NEAR(RegionDrop(sse_before, sse_after, std::vector<char>(n * n, 0)), -50.0 / 20200.0, 1e-9);  // empty region: all
+  // The typical per-texel drop: cluster 1's 200 texels halve their error,
+  // (1 - 0.5) / 1.5 each; the moved texel is unchanged. Not moved by the
+  // texel whose error grew outside the region.
+  EXPECT_NEAR(BoundedRegionDrop(sse_before, sse_after, r0), 200 * (0.5 / 1.5) / 201.0, 1e-9);
+  // One texel's squared error soaring (a highlight moved by a bump) outweighs
+  // the total, not the typical texel.
+  sse_after[n - 1] = 500.0;  // (19, 0): cluster 1
+  EXPECT_LT(RegionDrop(sse_before, sse_after, r0), 0.0);
+  EXPECT_GT(BoundedRegionDrop(sse_before, sse_after, r0), 0.3);
 }
 
 }  // namespace

@@ -3,8 +3,10 @@
 
 #include <filesystem>
 
+#include "core/error.h"
 #include "io/files.h"
 #include "io/image.h"
+#include "pipeline/normal_stage.h"
 #include "pipeline/report_html.h"
 
 namespace svbrdf {
@@ -39,6 +41,37 @@ TEST(ReportHtml, HasMapsTwinTimingsModelsAndWarnings) {
   for (size_t p = html.find("data:image/png;base64,"); p != std::string::npos; p = html.find("data:image/png;base64,", p + 1)) ++images;
   EXPECT_EQ(images, 7u);
   fs::remove_all(dir);
+}
+
+// The bootstrap of the normals <-> materials alternation starts when the
+// first refinement lowers some material's held-out error by the given share
+// (relative, on squared errors), even if the whole is rejected; not when
+// every material gets worse or gains less (captures without bumps).
+TEST(NormalStage, BootstrapStartsWhenSomeMaterialImproves) {
+  NormalRefinement nr;
+  nr.heldout_rmse_mesh_by_material = {0.174, 0.0151, 0.0091};
+  nr.heldout_rmse_refined_by_material = {0.204, 0.0103, 0.0061};  // bump-mapped default, measured
+  EXPECT_TRUE(SomeMaterialImproved(nr, 0.01));
+  nr.heldout_rmse_refined_by_material = {0.204, 0.0160, 0.0092};  // every material worse
+  EXPECT_FALSE(SomeMaterialImproved(nr, 0.01));
+  nr.heldout_rmse_refined_by_material = {0.204, 0.0151 * 0.996, 0.0091};  // 0.8 % on squared error: too little
+  EXPECT_FALSE(SomeMaterialImproved(nr, 0.01));
+  EXPECT_FALSE(SomeMaterialImproved(NormalRefinement(), 0.01));  // nothing decided (mode force, or no texels)
+  // The default gain: bumps (53 %) start it, a hair (the scan test's 8 %) does not.
+  const double gain = NormalAlternationOptions().min_material_gain;
+  nr.heldout_rmse_mesh_by_material = {0.174, 0.0151, 0.0091};
+  nr.heldout_rmse_refined_by_material = {0.204, 0.0103, 0.0092};
+  EXPECT_TRUE(SomeMaterialImproved(nr, gain));
+  nr.heldout_rmse_mesh_by_material = {0.0133471, 0.00108176};
+  nr.heldout_rmse_refined_by_material = {0.0128165, 0.00120307};
+  EXPECT_TRUE(SomeMaterialImproved(nr, 0.01));
+  EXPECT_FALSE(SomeMaterialImproved(nr, gain));
+  NormalAlternationOptions ao;
+  ao.bootstrap_rounds = -1;
+  EXPECT_THROW(ao.Check(), Error);
+  ao.bootstrap_rounds = 2;
+  ao.min_material_gain = 1.0;
+  EXPECT_THROW(ao.Check(), Error);
 }
 
 }  // namespace

@@ -169,7 +169,7 @@ TEST(Synth, RejectsBadOptions) {
 
 TEST(Synth, EveryPresetParses) {
   const std::vector<std::string> names = SynthPresetNames();
-  for (const char* wanted : {"default", "tiny", "standard", "mixed", "mixed_tiny", "metals_rough", "metals_polished",
+  for (const char* wanted : {"default", "default_bump", "tiny", "standard", "mixed", "mixed_tiny", "metals_rough", "metals_polished",
                              "coated_plastic"})
     EXPECT_NE(std::find(names.begin(), names.end(), wanted), names.end()) << wanted;
   for (const std::string& name : names) EXPECT_NO_THROW(SynthPreset(name)) << name;

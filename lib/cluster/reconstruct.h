@@ -25,7 +25,9 @@
 //        neighbours' clusters with non-negative scalar weights (NNLS, with a
 //        weak prior towards its own cluster), and the squared error on its
 //        held-out samples is measured. A split counts as an improvement when
-//        the error drops by `min_improvement` (relative) and by `min_z`
+//        the error drops by `min_improvement` (relative to the error of the
+//        texels the split can change, of the squared errors or typical per
+//        texel: split_region.h) and by `min_z`
 //        standard errors (paired tests over texels: on squared errors, or on
 //        bounded per-texel changes), and beats a control split of the same
 //        cluster along a non-material direction by as much (`control_split`:

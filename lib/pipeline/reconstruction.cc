@@ -11,6 +11,7 @@
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/normal_map.h"
+#include "pipeline/normal_stage.h"
 #include "pipeline/report_html.h"
 #include "relight/relight.h"
 
@@ -45,21 +46,6 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
   WriteImage(dir + "/" + tag + "_error.png", ErrorMap(photo, v.color, 0.05 * e.exposure), PixelFormat::kUInt8,
              ColorSpace::kLinear);
   return {{"view", e.file}, {"psnr_srgb", m.psnr_srgb}, {"rel_rmse_linear", m.rel_rmse_linear}};
-}
-
-nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est) {
-  return {{"kept", nr.kept},
-          {"clusters", est.basis.size()},
-          {"heldout_rmse_mesh", nr.heldout_rmse_mesh},
-          {"heldout_rmse_refined", nr.heldout_rmse_refined},
-          {"decision_texels", nr.decision_texels},
-          {"texels_refined", nr.texels_refined},
-          {"noise_sigma", nr.noise_sigma},
-          {"mean_tilt_deg", nr.mean_tilt_deg},
-          {"median_tilt_deg", nr.median_tilt_deg},
-          {"material_kept", std::vector<int>(nr.material_kept.begin(), nr.material_kept.end())},
-          {"heldout_rmse_mesh_by_material", nr.heldout_rmse_mesh_by_material},
-          {"heldout_rmse_refined_by_material", nr.heldout_rmse_refined_by_material}};
 }
 
 // The normal map as colours (xyz -> rgb = (n + 1) / 2) and, when the capture
@@ -103,9 +89,6 @@ nlohmann::json WriteNormalPictures(const Scene& scene, const GatherResult& g, co
 
 }  // namespace
 
-// The normal decision's time as a share of the clustering's (see its use).
-constexpr double kNormalDecisionShare = 0.35;
-
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   StageTimer timer;
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
@@ -137,63 +120,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.threads = eo.threads;
   no.progress = no.progress && eo.progress;
   no.deadline = eo.deadline;
-  NormalRefinement nr;
   nlohmann::json normals_rounds = nlohmann::json::array();
-  // Anytime: the normal decision costs 0.19-0.27x the clustering (measured:
-  // default 0.19, standard 0.27, mixed about 0.24); not started without
-  // 0.35x left, since a decision stopped midway keeps the mesh normals.
-  if (no.Enabled() && eo.SecondsLeft() <= kNormalDecisionShare * cluster_seconds) {
-    est.cut_by_deadline.push_back("normal refinement");
-  } else if (no.Enabled()) {
-    timer.Start("refine normals");
-    nr = RefineNormals(g.samples, g.atlas, est, no);
-    std::fprintf(stderr, "  %s\n", nr.Report().c_str());
-    if (nr.cut_by_deadline) est.cut_by_deadline.push_back("normal refinement (not kept: no time to finish it)");
-    normals_rounds.push_back(NormalsJson(nr, est));
-    const bool recluster_fits = eo.SecondsLeft() > cluster_seconds;
-    if (nr.kept && no.recluster && !recluster_fits) est.cut_by_deadline.push_back("second clustering");
-    if (nr.kept && no.recluster && recluster_fits) {
-      // Bumps that the mesh lacks shade the texels of one material
-      // differently, which the clustering reads as different materials (or as
-      // noise that hides real ones); with the normals known, a second
-      // clustering on the reoriented samples sees the materials themselves.
-      timer.Start("cluster again (refined normals)");
-      SvbrdfEstimate est2 = EstimateSvbrdf(ReorientSamples(g.samples, nr.tilt), g.atlas, eo);
-      timer.Start("refine normals again");
-      NormalRefinement nr2 = RefineNormals(g.samples, g.atlas, est2, no, &nr.tilt);
-      std::fprintf(stderr, "  again: %s\n", nr2.Report().c_str());
-      normals_rounds.push_back(NormalsJson(nr2, est2));
-      // Held-out errors of both rounds are on the same photos and texels.
-      const bool better = no.mode == "force" || (nr2.kept && nr2.heldout_rmse_refined < nr.heldout_rmse_refined);
-      normals_rounds.back()["chosen"] = better;
-      if (better) est = std::move(est2), nr = std::move(nr2);
-    }
-    // Normals <-> materials: materials fitted under the mesh normals are
-    // biased where the surface is bumped (a metal's shifted highlights read
-    // as a broader, dimmer lobe), and normals fitted with biased materials
-    // fall short of the true tilts; refitting the materials on the samples
-    // in the refined frames, then the normals from the refined ones, lets
-    // both converge. A round is kept only when the held-out error (same
-    // photos, same texels) drops.
-    for (int round = 0; round < no.material_rounds && nr.kept; ++round) {
-      if (eo.SecondsLeft() <= cluster_seconds / 2) {
-        est.cut_by_deadline.push_back("material refit");
-        break;
-      }
-      timer.Start("refit materials (refined normals)");
-      SvbrdfEstimate est2 = RefitSvbrdf(ReorientSamples(g.samples, nr.tilt), g.atlas, eo, est);
-      timer.Start("refine normals again");
-      NormalRefinement nr2 = RefineNormals(g.samples, g.atlas, est2, no, &nr.tilt);
-      std::fprintf(stderr, "  material round %d: %s\n", round + 1, nr2.Report().c_str());
-      normals_rounds.push_back(NormalsJson(nr2, est2));
-      normals_rounds.back()["material_round"] = round + 1;
-      const bool better = nr2.kept && nr2.heldout_rmse_refined < (1.0 - no.min_improvement) * nr.heldout_rmse_refined;
-      normals_rounds.back()["chosen"] = better;
-      if (!better) break;
-      est = std::move(est2), nr = std::move(nr2);
-    }
-    if (nr.kept) est.weights = nr.weights;
-  }
+  const NormalRefinement nr =
+      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds);
 
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);

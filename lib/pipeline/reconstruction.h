@@ -9,6 +9,7 @@
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
 #include "normals/refine.h"
+#include "pipeline/normal_stage.h"
 
 namespace svbrdf {
 
@@ -18,6 +19,7 @@ struct ReconstructionJob {
   GatherOptions gather;
   ReconstructOptions estimate;
   NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
+  NormalAlternationOptions alternation;  // normals <-> materials bootstrap (normal_stage.h)
   bool report = true;  // pictures and summary under out_dir/report
   // Anytime (seconds, 0 = none): the best material found within this wall
   // time from the start, always a complete folder. Gathering and one cluster
