@@ -97,13 +97,15 @@ struct NormalOptions {
   // Under a bump map the materials fitted with the mesh normals are biased
   // (a metal's shifted highlights read as a broader, dimmer lobe), and the
   // normals fitted with biased materials stay short of the true tilt.
-  // Off by default (0): with the joint weights below, on the mixed preset
-  // the round is rejected (held-out RMSE 0.02388 vs 0.02403, +13 s CPU);
-  // on mixed_tiny too (+3.5 s CPU). (With the weight prior towards the
-  // clustering's weights it was chosen there, 40.01 -> 41.18 dB, but that
-  // prior lost the e2e bump test's normals; before the joint weights it was
-  // rejected on mixed_tiny and gained 0.1 dB on the standard capture.)
-  int material_rounds = 0;
+  // 2 by default (as the pipeline's bootstrap, normal_stage.h): with the
+  // joint weights below the first refinement is kept on the bump-mapped
+  // default capture (its glossy paint's normals now lower its error, 0.175
+  // -> 0.146), which skips the bootstrap; the rounds then take it from
+  // 29.12 to 32.71 dB held-out (spp 1; main with the bootstrap 31.62 dB).
+  // On the mixed preset round 1 is rejected (held-out RMSE 0.02388 vs
+  // 0.02403, +13 s CPU), on mixed_tiny too (+3.5 s CPU); where no normals
+  // are kept (default, standard) no round runs.
+  int material_rounds = 2;
   int max_iterations = 10;      // Levenberg-Marquardt iterations per texel (2 unknowns: converges in a few)
   long decision_texels = 4000;  // texels used for the held-out decision (a seeded subset), >= 100
   double min_improvement = 0.01;  // relative held-out squared-error drop needed to keep the normals
