@@ -345,7 +345,7 @@ TEST(Weights, SparseNeighboursDoNotDarkenTheNeighbourPass) {
   const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.3, 0.2)};
   const int n = 30;
   const SampleSet full = MakeMixedSamples(truth, std::vector<std::vector<double>>(n, {1.0}), 71);
-  SampleSet s;  // every third texel keeps only 2 samples (below min_samples)
+  SampleSet s;  // every third texel keeps only 2 samples (below min_fit_samples below)
   s.num_texels = n;
   s.texel_begin.push_back(0);
   for (int t = 0; t < n; ++t) {
@@ -359,6 +359,7 @@ TEST(Weights, SparseNeighboursDoNotDarkenTheNeighbourPass) {
     s.texel_begin.push_back(s.size());
   }
   ReconstructOptions o = Quiet();
+  o.min_fit_samples = 3;
   Clustering cl(s, LineAtlas(n), o);
   cl.SetBasis(0, truth[0]);
   WeightModel one_pass, two_passes;

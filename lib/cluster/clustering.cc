@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "cluster/adjacency.h"
 #include "cluster/holdout.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -26,22 +27,16 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
       holdout_[i] = held_image[s.image[i]];
       train_count_[t] += !holdout_[i];
     }
-  // 8-neighbours in the atlas, for spatially pooled assignment and mixing.
+  // Neighbours on the surface (8-neighbours in the atlas, and across chart
+  // borders and seams), for spatially pooled assignment, mixing and the
+  // labels of texels that no training photo saw.
+  neighbours_ = SurfaceNeighbours(atlas);
   neighbours_.resize(nt_);
-  for (int t = 0; t < nt_ && t < int(atlas.texels.size()); ++t) {
-    const Texel& tx = atlas.texels[t];
-    const int d[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
-    for (const auto& dd : d) {
-      const int x = tx.x + dd[0], y = tx.y + dd[1];
-      if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
-      const int u = atlas.At(x, y);
-      if (u >= 0 && u < nt_) neighbours_[t].push_back(u);
-    }
-  }
+  for (auto& nb : neighbours_) nb.erase(std::remove_if(nb.begin(), nb.end(), [this](int u) { return u >= nt_; }), nb.end());
   usable_.resize(nt_);
-  for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_samples;
+  for (int t = 0; t < nt_; ++t) usable_[t] = train_count_[t] >= o.min_fit_samples;
   if (std::count(usable_.begin(), usable_.end(), true) == 0)
-    throw Error(Msg("reconstruct: no texel has ", o.min_samples, " or more training samples; more photos or a coarser --texture-size are needed"));
+    throw Error(Msg("reconstruct: no texel has ", o.min_fit_samples, " or more training samples; more photos or a coarser --texture-size are needed"));
   assign_.assign(nt_, 0);
 }
 
@@ -144,16 +139,44 @@ long Clustering::Assign() {
       if (e < best) best = e, next[t] = k;
     }
   }, 512);
+  FillLabels(neighbours_, train_count_, K, &next);
   long changed = 0;
   changed_.assign(K, 0);
   for (int t = 0; t < nt_; ++t)
-    if (next[t] != assign_[t]) {
+    if (next[t] != assign_[t] && train_count_[t] > 0) {
       ++changed;
       if (assign_[t] >= 0 && assign_[t] < K) changed_[assign_[t]] = 1;
       changed_[next[t]] = 1;
     }
   assign_ = next;
   return changed;
+}
+
+void FillLabels(const std::vector<std::vector<int>>& neighbours, const std::vector<int>& train_count, int K,
+                std::vector<int>* label) {
+  const int nt = static_cast<int>(label->size());
+  std::vector<char> known(nt);
+  std::vector<int> unknown;
+  for (int t = 0; t < nt; ++t) {
+    known[t] = train_count[t] > 0;
+    if (!known[t]) unknown.push_back(t);
+  }
+  std::vector<int> votes(std::max(1, K));
+  while (!unknown.empty()) {
+    std::vector<std::pair<int, int>> newly;
+    std::vector<int> still;
+    for (int t : unknown) {
+      std::fill(votes.begin(), votes.end(), 0);
+      int n = 0;
+      for (int u : neighbours[t])
+        if (known[u] && (*label)[u] >= 0 && (*label)[u] < K) votes[(*label)[u]]++, ++n;
+      if (n == 0) still.push_back(t);
+      else newly.emplace_back(t, int(std::max_element(votes.begin(), votes.end()) - votes.begin()));
+    }
+    if (newly.empty()) break;
+    for (const auto& [t, k] : newly) (*label)[t] = k, known[t] = 1;
+    unknown.swap(still);
+  }
 }
 
 double Clustering::TrainRmse(int k) const {

@@ -139,6 +139,15 @@ class Clustering {
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
 
+// Labels of texels without training samples (no training photo saw them)
+// from their neighbours: the majority label of the neighbours that have one,
+// front by front inwards from the seen texels. A label left over from an
+// earlier state would otherwise decide their material (seen with 8 photos: a
+// strip seen only by the held-out photos kept a split half's label and was
+// relit green on a blue region).
+void FillLabels(const std::vector<std::vector<int>>& neighbours, const std::vector<int>& train_count, int K,
+                std::vector<int>* label);
+
 // Canonical key of a texel partition: the same for any numbering of the
 // clusters (labels renumbered in order of first appearance, then hashed).
 uint64_t PartitionKey(const std::vector<int>& assign);

@@ -105,6 +105,8 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
 
   // 5. Confidence and neighbour fill (confidence.cc).
   ConfidenceAndFill(samples, atlas, o, cl.K(), &est);
+  log(Msg(est.texels_without_samples, " texels no photo saw: ", est.texels_filled,
+          " filled from their neighbours on the surface"));
   for (int k = 0; k < cl.K(); ++k) cl.basis()[k].name = Msg("m", k);
   est.basis = cl.basis();
 }
