@@ -7,6 +7,7 @@
 #include <string>
 #include <tuple>
 
+#include "cluster/photo_folds.h"
 #include "cluster/stats.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -28,6 +29,9 @@ constexpr size_t kMinValidationSamples = 300;
 constexpr int64_t kScreenSamples = 600;
 constexpr int kScreenIterations = 12;
 constexpr size_t kFinalists = 3;
+// Photo folds of the finalists' cross-validation (5: each fit sees 80 % of
+// the photos, as the clustering's own hold-out leaves).
+constexpr int kPhotoFolds = 5;
 
 }  // namespace
 
@@ -172,10 +176,20 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
       tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
     });
     const std::vector<size_t> finalists = Finalists(tried, o.parsimony * signal);
+    // The finalists are compared on out-of-fold errors over all the
+    // cluster's samples (photo folds, photo_folds.h): every photo is
+    // validation once, so the choice does not hang on what the held-out
+    // photos happened to see. The basis itself is the fit on the training samples.
+    std::vector<int64_t> all = cl.Ids(k, false), held_k = cl.Ids(k, true);
+    all.insert(all.end(), held_k.begin(), held_k.end());
+    const std::vector<int> fold = PhotoFolds(samples, all, kPhotoFolds, o.seed);
+    FitOptions cv = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model cross-validation)"));
+    cv.max_samples = std::min(o.fit.max_samples, o.selection_samples);
+    const double cv_signal = SignalRms(samples, all);
     ParallelFor(long(finalists.size()), o.threads, [&](long f) {
       Tried& t = tried[finalists[f]];
       t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, false, true);
-      t.errors = SampleErrors(t.spec, t.fit.params, samples, hold);
+      t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params);
       t.rmse = TrimmedRmse(t.errors);
       t.final = true;
     });
@@ -185,7 +199,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
     // their bounds only when clearly better (ChooseModel).
     std::vector<ModelCandidate> final_candidates;
     for (size_t j : finalists) final_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
-    const int chosen = int(finalists[ChooseModel(final_candidates, cl.basis()[k].spec, o.parsimony * signal, o.model_min_z)]);
+    const int chosen = int(finalists[ChooseModel(final_candidates, cl.basis()[k].spec, o.parsimony * cv_signal, o.model_min_z)]);
     for (size_t j = 0; j < tried.size(); ++j)
       est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen,
                                    tried[j].final});
