@@ -102,11 +102,13 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   return skip_ls || robust.converged || !ls.converged ? robust : ls;
 }
 
-double Clustering::ScaledError(int t, int k, bool heldout) const {
+double Clustering::ScaledError(int t, int k, bool heldout) const { return ScaledError(t, k, heldout ? 1 : 0); }
+
+double Clustering::ScaledError(int t, int k, int which) const {
   double yp = 0, pp = 0, yy = 0;
   const std::vector<float>& p = pred_[k];
   for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i) {
-    if (bool(holdout_[i]) != heldout) continue;
+    if (which != 2 && int(holdout_[i]) != which) continue;
     for (int c = 0; c < 3; ++c) {
       const double y = s_.y[c][i], q = p[3 * i + c];
       yp += y * q, pp += q * q, yy += y * y;
@@ -177,6 +179,30 @@ void FillLabels(const std::vector<std::vector<int>>& neighbours, const std::vect
     for (const auto& [t, k] : newly) (*label)[t] = k, known[t] = 1;
     unknown.swap(still);
   }
+}
+
+void Clustering::LabelUnseenByAllSamples() {
+  const int K = this->K();
+  std::vector<int> count(nt_), next(assign_);
+  std::vector<double> err(size_t(nt_) * K, 0.0);
+  for (int t = 0; t < nt_; ++t) count[t] = int(s_.texel_begin[t + 1] - s_.texel_begin[t]);
+  ParallelFor(nt_, o_.threads, [&](long t) {
+    if (count[t] == 0) return;
+    for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, 2);
+  }, 512);
+  // Texels that only held-out photos saw: pooled as in Assign, on all samples.
+  for (int t = 0; t < nt_; ++t) {
+    if (train_count_[t] > 0 || count[t] == 0) continue;
+    double best = 1e300;
+    for (int k = 0; k < K; ++k) {
+      double e = err[size_t(t) * K + k];
+      for (int u : neighbours_[t])
+        if (count[u] > 0) e += 0.5 * err[size_t(u) * K + k];
+      if (e < best) best = e, next[t] = k;
+    }
+  }
+  FillLabels(neighbours_, count, K, &next);
+  assign_ = next;
 }
 
 double Clustering::TrainRmse(int k) const {

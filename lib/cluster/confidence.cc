@@ -77,8 +77,8 @@ void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const Recon
     // seen with 8 photos: replacing them by their neighbours' averages
     // filled most of the surface from the few texels seen 3 times), at a
     // low confidence.
-    known[t] = e > b;
     const bool confident = (e - b) >= o.min_samples && spread > 0.02;
+    known[t] = e > b;
     est.confidence[t] *= confident ? 1.0f : 0.25f;
   }
   for (int t = 0; t < nt; ++t)

@@ -94,7 +94,10 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
 
   // 4. Mixing weights: scalar or per channel, and how far materials mix, by held-out error (weights.cc).
   const WeightModel weight_model = ChooseWeightModel(cl, &est, log);
+  const std::vector<int> training_labels = cl.assign();
+  cl.LabelUnseenByAllSamples();
   cl.FinalWeights(weight_model, &est.weights, &est.residual);
+  cl.assign() = training_labels;  // the quality below is measured as the weights were chosen
 
   // 6. What the model explains poorly (quality.cc).
   est.cluster_quality = MeasureClusterQuality(cl, weight_model);

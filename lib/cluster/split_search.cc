@@ -139,7 +139,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     }
     const double h = cl.HeldoutRmse(false, &texel_sse);
     step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    const double drop = 1.0 - (h * h) / std::max(1e-300, best * best);
+    const double drop = TrimmedDrop(states[best_state].texel_sse, texel_sse);
     // Paired tests over texels: on the squared errors (dominated by the
     // texels with the largest errors) or on the bounded per-texel changes
     // (how consistently texels improve; with few photos the first is noisy).
@@ -175,9 +175,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       }
       cl.HeldoutRmse(false, &control_sse);
       restore(candidate);
-      double sc = 0, sn = 0;
-      for (size_t t = 0; t < control_sse.size(); ++t) sc += candidate_sse[t], sn += control_sse[t];
-      const double gain = 1.0 - sc / std::max(1e-300, sn);
+      const double gain = TrimmedDrop(control_sse, candidate_sse);
       const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
       passes = gain >= std::min(o.min_improvement, o.control_min_share * drop) && zc >= o.min_z;
       control_note += Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc, passes ? "" : ": model error, not materials");
