@@ -41,9 +41,22 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
 }
 
 std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
-  std::vector<int64_t> ids;
+  // The well-seen texels (min_samples or more training samples) alone when
+  // they hold most of the cluster's training samples: texels seen once or
+  // twice sit where few photos reach (grazing views, region borders) and
+  // bias a fit (mixed_tiny: the copper's F0 6-8 % low with them, 3 % without).
+  // With few photos they are most of the data and all texels take part
+  // (default preset at 8 photos: 27 dB held-out on the well-seen alone, 44 dB with all).
+  int64_t all_train = 0, well_train = 0;
   for (int t = 0; t < nt_; ++t) {
     if (!usable_[t] || (k >= 0 && assign_[t] != k)) continue;
+    all_train += train_count_[t];
+    if (train_count_[t] >= o_.min_samples) well_train += train_count_[t];
+  }
+  const int min_count = 2 * well_train >= all_train ? std::max(o_.min_samples, o_.min_fit_samples) : o_.min_fit_samples;
+  std::vector<int64_t> ids;
+  for (int t = 0; t < nt_; ++t) {
+    if (!usable_[t] || train_count_[t] < min_count || (k >= 0 && assign_[t] != k)) continue;
     for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i)
       if (bool(holdout_[i]) == heldout) ids.push_back(i);
   }

@@ -68,7 +68,9 @@ class Clustering {
   const SampleSet& samples() const { return s_; }
   const ReconstructOptions& options() const { return o_; }
 
-  // Sample ids of usable texels in cluster k (all clusters when k < 0), train or held-out.
+  // Sample ids of usable texels in cluster k (all clusters when k < 0), train
+  // or held-out: of its texels with min_samples or more training samples
+  // when those hold at least half of its training samples, else of all.
   std::vector<int64_t> Ids(int k, bool heldout) const;
 
   // Sets basis k (k == K() appends one) and its predictions.
