@@ -41,19 +41,24 @@ Clustering::Clustering(const SampleSet& s, const Atlas& atlas, const Reconstruct
 }
 
 std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
-  // The well-seen texels (min_samples or more training samples) alone when
-  // they hold most of the cluster's training samples: texels seen once or
-  // twice sit where few photos reach (grazing views, region borders) and
-  // bias a fit (mixed_tiny: the copper's F0 6-8 % low with them, 3 % without).
-  // With few photos they are most of the data and all texels take part
-  // (default preset at 8 photos: 27 dB held-out on the well-seen alone, 44 dB with all).
+  // Final materials (well_seen_fits): the well-seen texels (min_samples or
+  // more training samples) alone when they hold most of the cluster's
+  // training samples. Texels seen once or twice sit where few photos reach
+  // (grazing views, region borders) and bias a fit (mixed_tiny: the copper's
+  // F0 6-8 % low with them, 3 % without). With few photos they are most of
+  // the data and all texels take part (default preset at 8 photos: 27 dB
+  // held-out on the well-seen alone, 44 dB with all). Not while splitting:
+  // the split search's measure scores every texel with training samples,
+  // and fits that never saw some of them extrapolate there (12 photos: the
+  // one-cluster fit read 0.28 held-out RMSE and the search kept 1 cluster).
   int64_t all_train = 0, well_train = 0;
   for (int t = 0; t < nt_; ++t) {
     if (!usable_[t] || (k >= 0 && assign_[t] != k)) continue;
     all_train += train_count_[t];
     if (train_count_[t] >= o_.min_samples) well_train += train_count_[t];
   }
-  const int min_count = 2 * well_train >= all_train ? std::max(o_.min_samples, o_.min_fit_samples) : o_.min_fit_samples;
+  const int min_count = well_seen_fits_ && 2 * well_train >= all_train ? std::max(o_.min_samples, o_.min_fit_samples)
+                                                                       : o_.min_fit_samples;
   std::vector<int64_t> ids;
   for (int t = 0; t < nt_; ++t) {
     if (!usable_[t] || train_count_[t] < min_count || (k >= 0 && assign_[t] != k)) continue;

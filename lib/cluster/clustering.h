@@ -69,13 +69,17 @@ class Clustering {
   const ReconstructOptions& options() const { return o_; }
 
   // Sample ids of usable texels in cluster k (all clusters when k < 0), train
-  // or held-out: of its texels with min_samples or more training samples
-  // when those hold at least half of its training samples, else of all.
+  // or held-out; with well_seen_fits (final materials): of its texels with
+  // min_samples or more training samples when those hold at least half of
+  // its training samples, else of all.
   std::vector<int64_t> Ids(int k, bool heldout) const;
 
   // Sets basis k (k == K() appends one) and its predictions.
   void SetBasis(int k, const BasisMaterial& b);
   void RemoveBasis(int k);
+
+  // From model selection on (FinishEstimate): fits and validation on the well-seen texels (Ids).
+  bool well_seen_fits_ = false;
 
   // Names the current stage in fit errors ("reconstruct: cluster 2 (split): ...").
   const char* stage = "clustering";

@@ -79,6 +79,7 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
   cl.stage = "model selection";
+  cl.well_seen_fits_ = true;
   if (o.SecondsLeft() > search_seconds) {
     SelectModels(cl, &est, log);
   } else {
