@@ -210,12 +210,15 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     const double cv_signal = SignalRms(samples, all);
     ParallelFor(long(finalists.size()), o.threads, [&](long f) {
       Tried& t = tried[finalists[f]];
-      // Multi-start around the screening fit (which is among the starts,
-      // so the training cost can only improve): a start from the split
-      // stage's material, fitted on every texel, sparse ones included, left
-      // mixed_tiny's copper in a local optimum with F0 6-8 % low (3 % with
-      // the multi-start; the same PSNR on the default and standard presets).
-      t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, true, false);
+      // The cluster's own model was screened from its split-stage material
+      // (fitted on every texel, sparse ones included): multi-start around
+      // that screening fit (which is among the starts, so the training cost
+      // can only improve). From the warm start alone mixed_tiny's copper
+      // stayed in a local optimum with F0 6-8 % low (3 % with the
+      // multi-start; the same PSNR on the default and standard presets).
+      // The other finalists were screened from the models' own starts.
+      const bool warm = t.spec == cl.basis()[k].spec;
+      t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
       t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params);
       t.rmse = TrimmedRmse(t.errors);
       t.final = true;
