@@ -68,12 +68,18 @@ class Clustering {
   const SampleSet& samples() const { return s_; }
   const ReconstructOptions& options() const { return o_; }
 
-  // Sample ids of usable texels in cluster k (all clusters when k < 0), train or held-out.
+  // Sample ids of usable texels in cluster k (all clusters when k < 0), train
+  // or held-out; with well_seen_fits (final materials): of its texels with
+  // min_samples or more training samples when those hold at least half of
+  // its training samples, else of all.
   std::vector<int64_t> Ids(int k, bool heldout) const;
 
   // Sets basis k (k == K() appends one) and its predictions.
   void SetBasis(int k, const BasisMaterial& b);
   void RemoveBasis(int k);
+
+  // From model selection on (FinishEstimate): fits and validation on the well-seen texels (Ids).
+  bool well_seen_fits_ = false;
 
   // Names the current stage in fit errors ("reconstruct: cluster 2 (split): ...").
   const char* stage = "clustering";
@@ -95,6 +101,16 @@ class Clustering {
   // scale a in [0.5, 2] shared by the channels (a texel may be darker or
   // brighter than its material, but not of another colour).
   double ScaledError(int t, int k, bool heldout) const;
+  // The same on training (which = 0), held-out (1) or all (2) samples.
+  double ScaledError(int t, int k, int which) const;
+
+  // Before the final weights (which use all samples): texels that only
+  // held-out photos saw get their label from their own samples (pooled
+  // with their neighbours' as in Assign) instead of from their neighbours'
+  // labels alone, and texels no photo saw are filled again from those.
+  // Seen with 8 photos: 30 such texels at a region border kept the filled
+  // label of the other region, 74 % of the worst held-out view's error.
+  void LabelUnseenByAllSamples();
 
   // Whether cluster k gained or lost texels in the last Assign().
   bool MembershipChanged(int k) const { return k < int(changed_.size()) && changed_[k]; }
@@ -138,6 +154,15 @@ class Clustering {
   std::vector<BasisMaterial> basis_;
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
+
+// Labels of texels without training samples (no training photo saw them)
+// from their neighbours: the majority label of the neighbours that have one,
+// front by front inwards from the seen texels. A label left over from an
+// earlier state would otherwise decide their material (seen with 8 photos: a
+// strip seen only by the held-out photos kept a split half's label and was
+// relit green on a blue region).
+void FillLabels(const std::vector<std::vector<int>>& neighbours, const std::vector<int>& train_count, int K,
+                std::vector<int>* label);
 
 // Canonical key of a texel partition: the same for any numbering of the
 // clusters (labels renumbered in order of first appearance, then hashed).

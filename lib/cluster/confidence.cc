@@ -3,39 +3,42 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cluster/adjacency.h"
 #include "core/types.h"
 
 namespace svbrdf {
 
 namespace {
 
-// Neighbour fill for texels without confident weights: repeated averaging of
-// the 4-neighbours that have weights (a discrete harmonic fill).
-void FillFromNeighbours(const Atlas& atlas, int K, std::vector<float>* w, std::vector<char>* known) {
-  const int nt = static_cast<int>(atlas.texels.size());
-  for (int pass = 0; pass < atlas.width + atlas.height; ++pass) {
+// Weights of texels that no photo saw: repeated averaging of the surface
+// neighbours (8-neighbours in the atlas and across chart borders and seams,
+// SurfaceNeighbours) that have weights, front by front (a discrete harmonic
+// fill). Returns how many texels were filled.
+int FillFromNeighbours(const std::vector<std::vector<int>>& nb, int K, std::vector<float>* w, std::vector<char>* known) {
+  const int nt = static_cast<int>(nb.size());
+  const size_t stride = size_t(K) * 3;
+  int filled = 0;
+  for (;;) {
     std::vector<int> newly;
-    std::vector<float> acc(size_t(nt) * K * 3, 0.0f);
+    std::vector<float> acc(stride);
     for (int t = 0; t < nt; ++t) {
       if ((*known)[t]) continue;
-      const Texel& tx = atlas.texels[t];
+      std::fill(acc.begin(), acc.end(), 0.0f);
       int n = 0;
-      const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-      for (auto& d : nb) {
-        const int x = tx.x + d[0], y = tx.y + d[1];
-        if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
-        const int u = atlas.At(x, y);
-        if (u < 0 || !(*known)[u]) continue;
-        for (int j = 0; j < K * 3; ++j) acc[size_t(t) * K * 3 + j] += (*w)[size_t(u) * K * 3 + j];
+      for (int u : nb[t]) {
+        if (!(*known)[u]) continue;
+        for (size_t j = 0; j < stride; ++j) acc[j] += (*w)[size_t(u) * stride + j];
         ++n;
       }
       if (n == 0) continue;
-      for (int j = 0; j < K * 3; ++j) (*w)[size_t(t) * K * 3 + j] = acc[size_t(t) * K * 3 + j] / n;
+      for (size_t j = 0; j < stride; ++j) (*w)[size_t(t) * stride + j] = acc[j] / n;
       newly.push_back(t);
     }
     if (newly.empty()) break;
     for (int t : newly) (*known)[t] = 1;
+    filled += int(newly.size());
   }
+  return filled;
 }
 
 }  // namespace
@@ -68,12 +71,20 @@ void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const Recon
     const double count_term = std::min(1.0, double(e - b) / (2.0 * o.min_samples));
     const double spread_term = std::min(1.0, spread / 0.1);
     est.confidence[t] = float(count_term * spread_term);
-    known[t] = (e - b) >= o.min_samples && spread > 0.02;
-    est.confidence[t] *= known[t] ? 1.0f : 0.25f;
+    // Texels with few or poorly spread samples keep the weights of their
+    // own samples (the final weights' priors towards their cluster's
+    // material and their neighbours' weights keep them from overfitting;
+    // seen with 8 photos: replacing them by their neighbours' averages
+    // filled most of the surface from the few texels seen 3 times), at a
+    // low confidence.
+    const bool confident = (e - b) >= o.min_samples && spread > 0.02;
+    known[t] = e > b;
+    est.confidence[t] *= confident ? 1.0f : 0.25f;
   }
   for (int t = 0; t < nt; ++t)
     if (!known[t]) std::fill(est.weights.begin() + size_t(t) * K * 3, est.weights.begin() + size_t(t + 1) * K * 3, 0.0f);
-  FillFromNeighbours(atlas, K, &est.weights, &known);
+  est.texels_without_samples = int(std::count(known.begin(), known.end(), char(0)));
+  est.texels_filled = FillFromNeighbours(SurfaceNeighbours(atlas), K, &est.weights, &known);
   est.label.assign(nt, -1);
   for (int t = 0; t < nt; ++t) {
     double best = -1;

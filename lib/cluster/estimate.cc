@@ -78,6 +78,7 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
   cl.stage = "model selection";
+  cl.well_seen_fits_ = true;
   // Selection costs 0.7-1.3x the search (measured), so about 1.3x the
   // search's time per cluster is predicted for the first cluster chosen.
   SelectModels(cl, &est, log, 1.3 * search_seconds / std::max(1, cl.K()));
@@ -90,7 +91,10 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
 
   // 4. Mixing weights: scalar or per channel, and how far materials mix, by held-out error (weights.cc).
   const WeightModel weight_model = ChooseWeightModel(cl, &est, log);
+  const std::vector<int> training_labels = cl.assign();
+  cl.LabelUnseenByAllSamples();
   cl.FinalWeights(weight_model, &est.weights, &est.residual);
+  cl.assign() = training_labels;  // the quality below is measured as the weights were chosen
 
   // 6. What the model explains poorly (quality.cc).
   est.cluster_quality = MeasureClusterQuality(cl, weight_model);
@@ -101,6 +105,8 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
 
   // 5. Confidence and neighbour fill (confidence.cc).
   ConfidenceAndFill(samples, atlas, o, cl.K(), &est);
+  log(Msg(est.texels_without_samples, " texels no photo saw: ", est.texels_filled,
+          " filled from their neighbours on the surface"));
   for (int k = 0; k < cl.K(); ++k) cl.basis()[k].name = Msg("m", k);
   est.basis = cl.basis();
 }

@@ -24,6 +24,7 @@ void ReconstructOptions::Check() const {
     if (r < 1 || r > 64) throw Error(Msg("reconstruct: weight radius must be in [1, 64], got ", r));
   if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
   if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");
+  if (min_fit_samples < 1) throw Error("reconstruct: min fit samples must be >= 1");
   if (candidate_models.empty() && force_model.empty()) throw Error("reconstruct: no candidate models");
   for (const auto& m : candidate_models) ModelSpec::FromLabel(m);  // throws for unknown labels
   if (!force_model.empty()) ModelSpec::FromLabel(force_model);

@@ -5,7 +5,7 @@
 // Algorithm (every step deterministic for a given seed):
 //  0. Split samples into training and held-out sets (per sample, by a hash of
 //     seed, texel and image; `holdout_fraction`). Texels with fewer than
-//     `min_samples` training samples do not take part in fits.
+//     `min_fit_samples` training samples do not take part in fits.
 //  1. One cluster holding every texel; fit `cluster_model` and the
 //     `split_models` to it, keep the one with the lowest held-out error
 //     (every cluster made by a split below chooses its model the same way).
@@ -25,9 +25,8 @@
 //        neighbours' clusters with non-negative scalar weights (NNLS, with a
 //        weak prior towards its own cluster), and the squared error on its
 //        held-out samples is measured. A split counts as an improvement when
-//        the error drops by `min_improvement` (relative to the error of the
-//        texels the split can change, of the squared errors or typical per
-//        texel: split_region.h) and by `min_z`
+//        the error drops by `min_improvement` (relative, without the worst
+//        2 % of texels of either state: TrimmedDrop) and by `min_z`
 //        standard errors (paired tests over texels: on squared errors, or on
 //        bounded per-texel changes), and beats a control split of the same
 //        cluster along a non-material direction by as much (`control_split`:
@@ -47,8 +46,9 @@
 //     either one scalar weight per basis material or one per colour channel,
 //     mixing the materials of the clusters within one of `weight_radii`
 //     texels, whichever predicts the held-out samples best.
-//  5. Texels with too few or poorly spread samples: weights filled in from
-//     neighbouring texels, low confidence.
+//  5. Texels with too few or poorly spread samples: low confidence; texels
+//     no photo saw: weights filled in from their neighbours on the surface
+//     (across chart borders and seams too).
 //  6. Per cluster: held-out RMSE relative to the signal; clusters above
 //     `poor_fit` are reported as poorly explained (no candidate fits them).
 #pragma once
@@ -120,7 +120,14 @@ struct ReconstructOptions {
   // zones are as wide as the object makes them, in texels as the atlas
   // makes them (default preset: held-out RMSE 0.0045 at radius 2, 0.0020 at 8).
   std::vector<int> weight_radii = {2, 4, 8};
-  int min_samples = 3;           // per texel, for fits and confident weights
+  int min_samples = 3;           // per texel, for confident weights (confidence map)
+  // Per texel, to take part in fits and in the split search's held-out
+  // measure. One: cluster fits pool all their texels, and a texel's weights
+  // have priors (its cluster's material, its neighbours). With 8 photos most
+  // texels have 1-2 training samples (default preset: 1856 of 16384 had 3 or
+  // more, and 8 of those had held-out samples), and a bar of 3 left the
+  // split search blind: it saw 8 texels and kept 2 materials of 3.
+  int min_fit_samples = 1;
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
   // cluster's residuals), 0 = plain least squares, > 0 = this scale.
   double robust_scale = -1.0;
@@ -175,6 +182,10 @@ struct SvbrdfEstimate {
   std::vector<int> label;         // basis index per texel (largest weight)
   std::vector<float> confidence;  // per texel, [0,1]
   std::vector<float> residual;    // per texel RMS residual of its samples
+  // Texels that no photo saw, and how many of them got their weights from
+  // their surface neighbours (the rest: no neighbour chain to a seen texel).
+  int texels_without_samples = 0;
+  int texels_filled = 0;
   std::vector<ClusterStep> history;
   int states_revisited = 0;       // splits that led back to an evaluated state (skipped, not re-evaluated)
   std::vector<ModelChoice> model_choices;

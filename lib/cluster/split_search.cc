@@ -4,7 +4,6 @@
 #include <unordered_set>
 
 #include "cluster/split.h"
-#include "cluster/split_region.h"
 #include "cluster/stats.h"
 #include "core/error.h"
 
@@ -142,24 +141,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     }
     const double h = cl.HeldoutRmse(false, &texel_sse);
     step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    // Relative drop on the texels the step can change (split_region.h): a
-    // poorly explained region elsewhere must not dilute it. Of the squared
-    // errors, or typical per texel (bounded changes), as the z test below:
-    // under a bump map the mesh lacks, a glossy material's moved highlights
-    // dominate the squared error, and a right split, whose halves' fits are
-    // sharper, can raise it while lowering the error of most texels
-    // (measured on the bump-mapped default at 160x120: squared -7.9 %,
-    // z = 57; the search stopped at 1 of 3 materials). Not one split past
-    // a rejected one (lookahead): that state carries two splits, one of which
-    // failed alone, and the typical texel cannot tell which of them earned
-    // its gain (measured on the mixed preset: a model-error split of the
-    // copper, rejected by its control, then a 5th cluster, 15 % above the
-    // best state's squared error and 30 % below per texel, was accepted).
-    const std::vector<char> region = SplitRegion(cl, states[best_state].assign, int(states[best_state].basis.size()),
-                                                 cl.assign(), o.mix_radius);
-    const bool typical = !lookahead;
-    const double drop = std::max(RegionDrop(states[best_state].texel_sse, texel_sse, region),
-                                 typical ? BoundedRegionDrop(states[best_state].texel_sse, texel_sse, region) : -1.0);
+    const double drop = TrimmedDrop(states[best_state].texel_sse, texel_sse);
     const double total_drop = 1.0 - (h * h) / std::max(1e-300, best * best);
     // Paired tests over texels: on the squared errors (dominated by the
     // texels with the largest errors) or on the bounded per-texel changes
@@ -196,8 +178,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       }
       cl.HeldoutRmse(false, &control_sse);
       restore(candidate);
-      const double gain = std::max(RegionDrop(control_sse, candidate_sse, region),
-                                   typical ? BoundedRegionDrop(control_sse, candidate_sse, region) : -1.0);
+      const double gain = TrimmedDrop(control_sse, candidate_sse);
       const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
       passes = gain >= std::min(o.min_improvement, o.control_min_share * drop) && zc >= o.min_z;
       control_note += Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc, passes ? "" : ": model error, not materials");
@@ -207,7 +188,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     for (int j = 0; j < cl.K(); ++j)
       sizes += Msg(j ? "/" : "", std::count(cl.assign().begin(), cl.assign().end(), j), " ", cl.basis()[j].spec.Label());
     log(Msg(cl.K(), " clusters (split of cluster ", k, ", features ", variants_tried[k], "; ", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
-            " % below the best so far on the texels it changes, ", 100 * total_drop, " % on all; z = ", z, control_note, ")"));
+            " % below the best so far without the worst 2 % of texels, ", 100 * total_drop, " % with them; z = ", z, control_note, ")"));
     if (o.force_clusters > 0 || passes) {
       states.push_back({cl.basis(), cl.assign(), h, texel_sse});
       best = h;

@@ -26,4 +26,13 @@ double PairedZ(const std::vector<double>& a, const std::vector<double>& b);
 // by the few texels with the largest errors (highlights).
 double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b);
 
+// Relative drop 1 - sum(b) / sum(a) of paired per-texel errors, without the
+// texels among the largest `trim` share of either (the union): one texel
+// whose held-out samples a new glossy material mispredicts (a misassigned
+// texel, a highlight the neighbour pooling put on the wrong side of a
+// border) must not decide a split. Seen on mixed_tiny: one copper texel's
+// held-out error (29.7) outweighed the gain of the 4000 others, and the
+// right 3-material split read 247 % worse.
+double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim = 0.02);
+
 }  // namespace svbrdf

@@ -147,6 +147,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
   summary["heldout_rmse"] = est.heldout_rmse;
+  summary["texels_without_samples"] = est.texels_without_samples;
+  summary["texels_filled_from_neighbours"] = est.texels_filled;
   if (job.time_budget_s > 0) {
     summary["time_budget_s"] = job.time_budget_s;
     summary["cut_by_time_budget"] = est.cut_by_deadline;

@@ -74,6 +74,10 @@ void WriteReportHtml(const json& s, const std::string& dir) {
   if (fs::exists(file("confidence.png"))) maps.push_back({file("confidence.png"), "confidence (0 .. 1)"});
   if (fs::exists(file("residual.png"))) maps.push_back({file("residual.png"), "per-texel fit residual"});
   page.Figures(maps, 256);
+  if (s.contains("texels_without_samples"))
+    page.Paragraph(Msg(s.value("texels_without_samples", 0), " texels no photo saw; ",
+                       s.value("texels_filled_from_neighbours", 0),
+                       " of them got their weights from their neighbours on the surface (low confidence)."));
 
   page.Heading("Basis materials");
   std::vector<std::vector<std::string>> rows;
