@@ -49,14 +49,14 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
   return f0;
 }
 
-// mixed_tiny: held-out PSNR measured 33.78 dB (MixedMaterialsRightCountAndMetal;
-// minus 1.3 dB margin; 34.24 dB before the tilt fit solved the weights with
-// it and weighted shot noise, with the matte's normals kept, now rejected:
-// held-out RMSE 0.01120 mesh vs 0.01169 refined); the goal for the
+// mixed_tiny: held-out PSNR measured 36.98 dB (MixedMaterialsRightCountAndMetal;
+// minus 2 dB margin; 34.24 dB at 00fa9c6, before the tilt fit solved the
+// weights with it; main's few-photo clustering, 34.32 dB by its commit
+// d66748f, models the matte as a lambert again); the goal for the
 // metal's F0 is 5 % (measured
 // 2.8, 3.0, 3.2 % low in r, g, b: the brightness F0 shares with the mixing
 // weights; 7 % low before main's model-selection changes at f83a319).
-constexpr double kMixedTinyMinPsnr = 32.5;
+constexpr double kMixedTinyMinPsnr = 35.0;
 constexpr double kMixedTinyF0Tolerance = 0.05;
 
 std::string Scratch(const std::string& name) {
