@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <random>
 #include <map>
 #include <set>
@@ -491,6 +492,42 @@ TEST(ModelChoice, TiesGoToFitsInsideTheirBoundsThenFewerParametersThenTheIncumbe
 // One hold-out rule for every stage (clustering, model choice, normal
 // refinement): whole photos, the share asked for, deterministic for a seed,
 // none when there is one photo.
+// Anytime: model selection runs per cluster while the time left exceeds
+// the predicted (then the measured) cost of one; the others keep their
+// clustering model and the cuts are named.
+TEST(ModelChoice, RunsPerClusterWithinTheDeadline) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.3, 0.2), Glossy(0.1, 2.0, 40)};
+  std::vector<int> label(200);
+  for (int t = 0; t < 200; ++t) label[t] = t < 120 ? 0 : 1;
+  const SampleSet s = MakeSamples(truth, label, 52);
+  auto run = [&](std::chrono::steady_clock::time_point deadline, double first_cluster_seconds) {
+    ReconstructOptions o = Quiet();
+    o.deadline = deadline;
+    Clustering cl(s, LineAtlas(200), o);
+    for (int k = 0; k < 2; ++k) cl.SetBasis(k, Glossy(0.3, 1.0, 10));
+    for (int t = 0; t < 200; ++t) cl.assign()[t] = label[t];
+    SvbrdfEstimate est;
+    SelectModels(cl, &est, StageLog(false), first_cluster_seconds);
+    std::vector<std::string> models;
+    for (const BasisMaterial& b : cl.basis()) models.push_back(b.spec.Label());
+    return std::make_pair(est, models);
+  };
+  const auto now = std::chrono::steady_clock::now();
+  const auto [all, all_models] = run(std::chrono::steady_clock::time_point::max(), 0);
+  EXPECT_TRUE(all.cut_by_deadline.empty());
+  EXPECT_EQ(all_models[0], "lambert");
+  ASSERT_EQ(all.model_choices.size(), 2 * Quiet().candidate_models.size());
+  EXPECT_TRUE(std::is_sorted(all.model_choices.begin(), all.model_choices.end(),
+                             [](const auto& a, const auto& b) { return a.cluster < b.cluster; }));
+  const auto [none, none_models] = run(now - std::chrono::seconds(1), 0);  // deadline passed
+  EXPECT_EQ(none.cut_by_deadline.size(), 2u);
+  EXPECT_TRUE(none.model_choices.empty());
+  EXPECT_EQ(none_models[0], "lafortune-1");  // the clustering's model, unchanged
+  // An hour left, but a predicted selection of two hours: nothing starts.
+  const auto [slow, slow_models] = run(now + std::chrono::hours(1), 7200.0);
+  EXPECT_EQ(slow.cut_by_deadline.size(), 2u);
+}
+
 TEST(Cluster, HeldOutPhotosFollowOneRule) {
   const std::vector<char> a = HeldOutImages(40, 0.2, 7), b = HeldOutImages(40, 0.2, 7), c = HeldOutImages(40, 0.2, 8);
   EXPECT_EQ(a, b);

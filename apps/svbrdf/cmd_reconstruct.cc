@@ -4,6 +4,7 @@
 
 #include "apps/svbrdf/commands.h"
 #include "core/error.h"
+#include "core/progress.h"
 #include "io/output_folder.h"
 #include "pipeline/reconstruction.h"
 
@@ -69,6 +70,7 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
       // The whole folder (material and report) appears only when complete.
       OutputFolder out(job->out_dir);
       ReconstructionJob in_tmp = *job;
+      in_tmp.time_spent_before_s = ProcessAgeSeconds();  // the budget counts the program's start-up
       in_tmp.out_dir = out.path();
       const auto summary = RunReconstruction(in_tmp);
       out.Commit();

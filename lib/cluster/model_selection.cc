@@ -1,6 +1,7 @@
 #include "cluster/model_selection.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <set>
@@ -147,13 +148,28 @@ size_t ChooseModel(const std::vector<ModelCandidate>& c, const ModelSpec& incumb
   return chosen;
 }
 
-void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) {
+void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, double first_cluster_seconds) {
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
   SvbrdfEstimate& est = *est_out;
   // 3. Model economy per cluster.
   std::vector<std::string> candidates = o.force_model.empty() ? o.candidate_models : std::vector<std::string>{o.force_model};
-  for (int k = 0; k < cl.K(); ++k) {
+  std::vector<int> order(cl.K()), texels(cl.K(), 0);
+  for (int k = 0; k < cl.K(); ++k) order[k] = k;
+  for (int a : cl.assign())
+    if (a >= 0 && a < cl.K()) texels[a]++;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return texels[a] > texels[b]; });
+  double longest = -1;  // the longest selection measured so far
+  const size_t choices_before = est.model_choices.size();
+  for (const int k : order) {
+    const double predicted = longest >= 0 ? longest : first_cluster_seconds;
+    if (o.SecondsLeft() <= predicted) {
+      est.cut_by_deadline.push_back(Msg("model selection of cluster ", k));
+      log(Msg("time budget: cluster ", k, " keeps its clustering model ", cl.basis()[k].spec.Label(), " (",
+              o.SecondsLeft(), " s left, a selection takes about ", predicted, " s)"));
+      continue;
+    }
+    const auto cluster_start = std::chrono::steady_clock::now();
     std::vector<int64_t> hold = cl.Ids(k, true), train = cl.Ids(k, false);
     if (candidates.size() > 1) ValidationSamples(cl, k, &train, &hold);
     // Candidates are independent small fits: one per thread pays better than
@@ -196,7 +212,11 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log) 
     log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse,
             FitAtBound(tried[chosen].spec, tried[chosen].fit.params) ? " at a bound" : "", "; finalists", others, ")"));
     cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
+    longest = std::max(longest, std::chrono::duration<double>(std::chrono::steady_clock::now() - cluster_start).count());
   }
+  // Reported in cluster order, whatever order they were chosen in.
+  std::stable_sort(est.model_choices.begin() + choices_before, est.model_choices.end(),
+                   [](const auto& a, const auto& b) { return a.cluster < b.cluster; });
 }
 
 }  // namespace svbrdf

@@ -53,6 +53,11 @@ bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params);
 size_t ChooseModel(const std::vector<ModelCandidate>& candidates, const ModelSpec& incumbent, double margin,
                    double min_z);
 
-void SelectModels(Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
+// Anytime (ReconstructOptions::deadline): clusters are taken largest first
+// (most texels: most of the picture), each only when the time left exceeds
+// the longest selection so far (`first_cluster_seconds`, a prediction, for
+// the first); the others keep the clustering's model, and the cut is
+// recorded in `est->cut_by_deadline`.
+void SelectModels(Clustering& cl, SvbrdfEstimate* est, const StageLog& log, double first_cluster_seconds = 0);
 
 }  // namespace svbrdf

@@ -211,16 +211,28 @@ WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const S
   std::vector<double> rmse(candidates.size());
   size_t best = 0;
   std::string line;
+  // Anytime: past the deadline only the first two candidates (scalar and
+  // per channel at the smallest radius: with one cluster only per-channel
+  // weights can follow colour) are scored, and another only while the time
+  // left exceeds the last one's cost.
+  size_t scored = 0;
   for (size_t j = 0; j < candidates.size(); ++j) {
+    const auto t0 = std::chrono::steady_clock::now();
     rmse[j] = cl.HeldoutRmse(candidates[j]);
+    scored = j + 1;
     if (rmse[j] < rmse[best]) best = j;
     line += Msg(j ? "; " : "", candidates[j].Label(), " ", rmse[j]);
+    if (j >= 1 && j + 1 < candidates.size() &&
+        cl.options().SecondsLeft() <= std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()) {
+      est->cut_by_deadline.push_back(Msg("mixing-weight choice (", scored, " of ", candidates.size(), " scored)"));
+      break;
+    }
   }
   const WeightModel& m = candidates[best];
   est->per_channel_weights = m.per_channel;
   est->weight_radius = m.radius;
   est->heldout_rmse = rmse[best];
-  for (size_t j = 0; j < candidates.size(); ++j)
+  for (size_t j = 0; j < scored; ++j)
     if (candidates[j].radius == m.radius)
       (candidates[j].per_channel ? est->heldout_rmse_channel : est->heldout_rmse_scalar) = rmse[j];
   log(Msg("weights: ", m.Label(), " (held-out RMSE ", line, ")"));

@@ -83,6 +83,26 @@ double ProcessCpuSeconds() {
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
+double ProcessAgeSeconds() {
+  // Field 22 of /proc/self/stat is the start time in clock ticks since boot;
+  // the command name (field 2) may hold spaces, so parse after its ')'.
+  std::ifstream stat("/proc/self/stat"), uptime("/proc/uptime");
+  std::string line;
+  double up = 0;
+  if (!std::getline(stat, line) || !(uptime >> up)) return 0.0;
+  const size_t close = line.rfind(')');
+  if (close == std::string::npos) return 0.0;
+  std::istringstream fields(line.substr(close + 1));
+  std::string field;
+  for (int i = 3; i <= 22 && fields >> field; ++i)
+    if (i == 22) {
+      const long ticks = sysconf(_SC_CLK_TCK);
+      const double age = up - std::stod(field) / double(ticks > 0 ? ticks : 100);
+      return age > 0 && age < 1e7 ? age : 0.0;
+    }
+  return 0.0;
+}
+
 double PeakMemoryMB() {
   std::ifstream in("/proc/self/status");
   std::string key;

@@ -53,5 +53,9 @@ double PeakMemoryMB();  // VmHWM of this process, from /proc/self/status
 // CPU time (user + sys) of this process so far, all threads: the per-stage
 // CPU/wall ratio shows whether both cores worked, whatever else runs.
 double ProcessCpuSeconds();
+// Wall seconds since this process started (from /proc/self/stat and
+// /proc/uptime, 10 ms resolution; 0 where they cannot be read): a time
+// budget counts the program's start-up (shared libraries, about 0.2 s) too.
+double ProcessAgeSeconds();
 
 }  // namespace svbrdf

@@ -103,11 +103,17 @@ nlohmann::json WriteNormalPictures(const Scene& scene, const GatherResult& g, co
 
 }  // namespace
 
+// The normal decision's time as a share of the clustering's (see its use).
+constexpr double kNormalDecisionShare = 0.35;
+
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   StageTimer timer;
-  const auto start = std::chrono::steady_clock::now();
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
     throw Error(Msg("reconstruct: --time-budget must be >= 0 seconds, got ", job.time_budget_s));
+  if (!(job.time_spent_before_s >= 0 && std::isfinite(job.time_spent_before_s)))
+    throw Error(Msg("reconstruct: time spent before the start must be >= 0 seconds, got ", job.time_spent_before_s));
+  const auto start = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                            std::chrono::duration<double>(job.time_spent_before_s));
   timer.Start("load capture");
   const Scene scene = LoadScene(job.scene_path);
   if (scene.images.empty()) throw Error(Msg(job.scene_path, ": images: the capture has no photos"));
@@ -133,7 +139,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.deadline = eo.deadline;
   NormalRefinement nr;
   nlohmann::json normals_rounds = nlohmann::json::array();
-  if (no.Enabled() && eo.SecondsLeft() <= 0) {
+  // Anytime: the normal decision costs 0.19-0.27x the clustering (measured:
+  // default 0.19, standard 0.27, mixed about 0.24); not started without
+  // 0.35x left, since a decision stopped midway keeps the mesh normals.
+  if (no.Enabled() && eo.SecondsLeft() <= kNormalDecisionShare * cluster_seconds) {
     est.cut_by_deadline.push_back("normal refinement");
   } else if (no.Enabled()) {
     timer.Start("refine normals");

@@ -25,6 +25,9 @@ struct ReconstructionJob {
   // normal refinement are skipped when they would not finish in time, and a
   // reserve (5 %, at least 0.3 s) is kept for writing.
   double time_budget_s = 0;
+  // Seconds already spent when RunReconstruction starts that count against
+  // the budget (the CLI passes the program's start-up: ProcessAgeSeconds).
+  double time_spent_before_s = 0;
 };
 
 // Returns the summary (also written to out_dir/report/summary.json).
