@@ -612,5 +612,20 @@ TEST(Confidence, TexelsWithoutSamplesTakeTheWeightsOfTheirSurfaceNeighbours) {
   EXPECT_GT(ring_a, 40);
 }
 
+
+TEST(Cluster, PartitionAgreementIgnoresTheNumbering) {
+  // The control test of the split search accepts a control split that its
+  // refinement turned into the candidate's own partition (same regions,
+  // other cluster numbers): agreement counts matched labels only.
+  const std::vector<int> a = {0, 0, 1, 1, 2, 2, 2, 0};
+  const std::vector<char> all(a.size(), 1);
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 1, 2}, all), 1.0);
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, all), 7.0 / 8);
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {0, 0, 0, 0, 0, 0, 0, 0}, all), 3.0 / 8);  // one label matches one cluster
+  std::vector<char> some = all;
+  some[6] = 0;  // the disagreeing texel takes no part
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, some), 1.0);
+}
+
 }  // namespace
 }  // namespace svbrdf
