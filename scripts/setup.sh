@@ -13,7 +13,7 @@ PACKAGES=(
   opencv-doc colmap
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev
   python3 python3-numpy python3-matplotlib python3-opencv python3-openimageio
-  libcgal-dev
+  libcgal-dev libcgal-demo
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

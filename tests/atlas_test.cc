@@ -1,6 +1,7 @@
 // Texel atlas: coverage, geometry at texel centres, dilation and trivial UVs.
 #include "atlas/atlas.h"
 #include "atlas/charts.h"
+#include "atlas/surface_neighbours.h"
 
 #include <gtest/gtest.h>
 
@@ -306,6 +307,113 @@ TEST(ChartAtlas, TexelSizeGrowsToFitTheCap) {
   EXPECT_TRUE(m.HasUVs());
   o.texel_size = -1;
   EXPECT_THROW(MakeChartAtlasUVs(BunnyScan(), o, &info), Error);
+}
+
+
+TEST(ChartAtlas, SmallChartsJoinTheirNeighbours) {
+  // Growing by normal cone leaves crumbs (one or a few triangles whose
+  // neighbours went to charts whose mean normal had turned away) and the
+  // cuts of charts that are not disks leave small pieces; each chart adds a
+  // ring of border texels. Merged, the same scan needs far fewer charts,
+  // and no more of them stay below the size limit than without merging.
+  ChartAtlasCase merged = MakeBunnyAtlas();
+  ChartAtlasOptions o = merged.options;
+  o.min_chart_texels = 0;
+  ChartAtlasInfo plain;
+  const Mesh m = MakeChartAtlasUVs(BunnyScan(), o, &plain);
+  EXPECT_LT(merged.info.charts, plain.charts * 3 / 4) << plain.charts << " charts without merging";
+  const auto small_charts = [&](const Mesh& mesh, double texel) {
+    std::map<int, double> area;
+    const std::vector<int> id = ChartIds(mesh);
+    for (int f = 0; f < int(mesh.faces.size()); ++f) area[id[f]] += Area3(mesh, f) / (texel * texel);
+    return std::count_if(area.begin(), area.end(), [&](const auto& a) { return a.second < merged.options.min_chart_texels; });
+  };
+  EXPECT_LT(small_charts(merged.mesh, merged.info.texel_size), small_charts(m, plain.texel_size));
+  o.min_chart_texels = -1;
+  EXPECT_THROW(MakeChartAtlasUVs(BunnyScan(), o, &plain), Error);
+}
+
+// ---- Texel neighbours on the surface (atlas/surface_neighbours.h).
+
+// Two unit squares side by side in 3D (x in [0, 1] and [1, 2]) as two
+// charts: A on the left of the texture, B mirrored on the right, so that
+// their shared edge x = 1 lies at A's right border and at B's right border,
+// 20 texels apart in the texture.
+Mesh TwoChartStrip() {
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(2, 0, 0), Vec3(2, 1, 0)};
+  m.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(1, 4, 5), Vec3i(1, 5, 2)};
+  // A: x -> u in [0.05, 0.45]; B: x = 1 -> u 0.95, x = 2 -> u 0.55 (mirrored).
+  m.texcoords = {Vec2(0.05, 0.3), Vec2(0.45, 0.3), Vec2(0.45, 0.7), Vec2(0.05, 0.7),
+                 Vec2(0.95, 0.3), Vec2(0.55, 0.3), Vec2(0.55, 0.7), Vec2(0.95, 0.7)};
+  m.face_uvs = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(4, 5, 6), Vec3i(4, 6, 7)};
+  m.ComputeNormals();
+  return m;
+}
+
+TEST(SurfaceNeighbours, NearestKnownTexelCrossesChartSeams) {
+  const Atlas atlas = BuildAtlas(TwoChartStrip(), 40, 40, 1);
+  EXPECT_NEAR(MedianTexelSpacing(atlas), 1.0 / 16, 1e-9);  // 0.4 of 40 texels per unit
+  const int nt = int(atlas.texels.size());
+  std::vector<char> known(nt), want(nt);
+  for (int t = 0; t < nt; ++t) {
+    known[t] = atlas.texels[t].interior && atlas.texels[t].x < 20;  // chart A's own texels
+    want[t] = atlas.texels[t].x >= 20;                              // every texel of chart B
+  }
+  const std::vector<int> from = NearestKnownTexels(atlas, known, want);
+  const std::vector<int> near = NearestKnownTexels(atlas, known, want, 2.0);
+  int checked = 0;
+  for (int t = 0; t < nt; ++t) {
+    if (!want[t]) {
+      EXPECT_EQ(from[t], -1);
+      continue;
+    }
+    ASSERT_GE(from[t], 0);
+    const Texel& tx = atlas.texels[t];
+    const Texel& u = atlas.texels[from[t]];
+    EXPECT_TRUE(known[from[t]]);
+    // The nearest known texel on the surface is A's texel at the seam (x
+    // near 1, same height), however far B's texel lies from the seam.
+    EXPECT_NEAR(u.position.x(), 1.0 - 0.5 / 16, 1e-6) << "texel " << tx.x << "," << tx.y;
+    EXPECT_NEAR(u.position.y(), tx.position.y(), 0.5 / 16 + 1e-9);
+    const double d = (u.position - tx.position).norm();
+    EXPECT_EQ(near[t] >= 0, d <= 2.0 / 16 + 1e-9) << "distance " << d * 16 << " texels";
+    ++checked;
+  }
+  EXPECT_GT(checked, 200);
+}
+
+TEST(SurfaceNeighbours, PrefersTexelsFacingTheSameSide) {
+  // A thin plate: two parallel squares 0.01 apart facing away from each
+  // other. The back's texels are nearer in 3D than the front's neighbours,
+  // but face the other way.
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0),
+                 Vec3(0, 0, -0.01), Vec3(1, 0, -0.01), Vec3(1, 1, -0.01), Vec3(0, 1, -0.01)};
+  m.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(4, 6, 5), Vec3i(4, 7, 6)};
+  m.texcoords = {Vec2(0.05, 0.05), Vec2(0.45, 0.05), Vec2(0.45, 0.45), Vec2(0.05, 0.45),
+                 Vec2(0.55, 0.05), Vec2(0.95, 0.05), Vec2(0.95, 0.45), Vec2(0.55, 0.45)};
+  m.face_uvs = m.faces;
+  m.face_uvs[2] = Vec3i(4, 5, 6), m.face_uvs[3] = Vec3i(4, 6, 7);  // back: counter-clockwise in uv too
+  m.ComputeNormals();
+  const Atlas atlas = BuildAtlas(m, 40, 40, 1);
+  const int nt = int(atlas.texels.size());
+  std::vector<char> known(nt), want(nt);
+  for (int t = 0; t < nt; ++t) {
+    const Texel& tx = atlas.texels[t];
+    const bool front = tx.normal.z() > 0;
+    known[t] = front ? tx.interior && (tx.x + tx.y) % 2 == 0 : tx.interior;  // half the front, all the back
+    want[t] = front && !known[t];
+  }
+  const std::vector<int> from = NearestKnownTexels(atlas, known, want);
+  int checked = 0;
+  for (int t = 0; t < nt; ++t)
+    if (want[t]) {
+      ASSERT_GE(from[t], 0);
+      EXPECT_GT(atlas.texels[from[t]].normal.z(), 0) << "took a texel of the other side";
+      ++checked;
+    }
+  EXPECT_GT(checked, 50);
 }
 
 }  // namespace

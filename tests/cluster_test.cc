@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "atlas/atlas.h"
 #include "cluster/adjacency.h"
 #include "cluster/clustering.h"
 #include "cluster/confidence.h"
@@ -766,6 +767,91 @@ TEST(FewPhotos, TexelsSeenOnlyByHeldOutPhotosAreLabelledByTheirSamples) {
   // few in the half-weighted neighbour pooling, as in Assign).
   for (int t = 0; t < n; ++t)
     if (t != 50) EXPECT_EQ(cl.assign()[t], label[t]) << "texel " << t;
+}
+
+// Two unit squares side by side in 3D (x in [0, 1] and [1, 2]) as two charts
+// of a 40^2 atlas: A on the left of the texture, B mirrored on the right,
+// so their shared edge x = 1 lies at the right border of both.
+Mesh TwoChartStrip() {
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(2, 0, 0), Vec3(2, 1, 0)};
+  m.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(1, 4, 5), Vec3i(1, 5, 2)};
+  m.texcoords = {Vec2(0.05, 0.3), Vec2(0.45, 0.3), Vec2(0.45, 0.7), Vec2(0.05, 0.7),
+                 Vec2(0.95, 0.3), Vec2(0.55, 0.3), Vec2(0.55, 0.7), Vec2(0.95, 0.7)};
+  m.face_uvs = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(4, 5, 6), Vec3i(4, 6, 7)};
+  m.ComputeNormals();
+  return m;
+}
+
+TEST(Confidence, TexelsWithoutSamplesTakeTheWeightsOfTheirSurfaceNeighbours) {
+  // Only chart A's interior texels have samples (as when chart B is a sliver
+  // whose texels are all border texels): material 0 below y = 0.5, material
+  // 1 above. Texture neighbours never reach chart B; before the surface
+  // fill its texels kept zero weights (relit black). Now every texel of B,
+  // and A's ring of border texels, takes the weights of A's texel nearest on
+  // the surface: the material at its own height.
+  const Atlas atlas = BuildAtlas(TwoChartStrip(), 40, 40, 1);
+  const int nt = int(atlas.texels.size()), K = 2;
+  SampleSet s;
+  s.num_texels = nt;
+  s.texel_begin.assign(1, 0);
+  SvbrdfEstimate est;
+  est.weights.assign(size_t(nt) * K * 3, 0.5f);  // overwritten for every texel without samples
+  Rng rng(5);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  for (int t = 0; t < nt; ++t) {
+    const Texel& tx = atlas.texels[t];
+    if (tx.interior && tx.x < 20) {
+      for (int i = 0; i < 6; ++i) {  // spread directions: a confident texel
+        const Vec3 wi = Vec3(u(rng), u(rng), 1).normalized(), wo = Vec3(u(rng), u(rng), 1).normalized();
+        const float fi[3] = {float(wi.x()), float(wi.y()), float(wi.z())}, fo[3] = {float(wo.x()), float(wo.y()), float(wo.z())};
+        const float y[3] = {0.1f, 0.1f, 0.1f};
+        s.Push(t, i, fi, fo, 1.0f, y);
+      }
+      const int k = tx.position.y() < 0.5 ? 0 : 1;
+      for (int j = 0; j < K; ++j)
+        for (int c = 0; c < 3; ++c) est.weights[(size_t(t) * K + j) * 3 + c] = j == k ? 1.0f : 0.0f;
+    }
+    s.texel_begin.push_back(s.size());
+  }
+  ReconstructOptions o;
+  ConfidenceAndFill(s, atlas, o, K, &est);
+  int chart_b = 0, ring_a = 0;
+  for (int t = 0; t < nt; ++t) {
+    const Texel& tx = atlas.texels[t];
+    const bool in_b = tx.x >= 20;
+    if (!in_b && tx.interior) continue;
+    if (std::abs(tx.position.y() - 0.5) < 1.0 / 16) continue;  // the material border itself
+    const int k = tx.position.y() < 0.5 ? 0 : 1;
+    // The texel's own side's material dominates and the weights sum to 1.
+    // Not exact: the neighbour fill averages surface neighbours (harmonic),
+    // which next to the material border include texels of the other one
+    // (measured: up to 0.26 of it, 2 texels from the border).
+    float sum = 0;
+    for (int j = 0; j < K; ++j) sum += est.weights[(size_t(t) * K + j) * 3];
+    EXPECT_NEAR(sum, 1.0f, 1e-4) << (in_b ? "chart B" : "ring of A") << " texel " << tx.x << "," << tx.y;
+    EXPECT_GT(est.weights[(size_t(t) * K + k) * 3], 0.5f)
+        << (in_b ? "chart B" : "ring of A") << " texel " << tx.x << "," << tx.y << " material " << k;
+    EXPECT_EQ(est.label[t], k);
+    (in_b ? chart_b : ring_a)++;
+  }
+  EXPECT_GT(chart_b, 200);
+  EXPECT_GT(ring_a, 40);
+}
+
+
+TEST(Cluster, PartitionAgreementIgnoresTheNumbering) {
+  // The control test of the split search accepts a control split that its
+  // refinement turned into the candidate's own partition (same regions,
+  // other cluster numbers): agreement counts matched labels only.
+  const std::vector<int> a = {0, 0, 1, 1, 2, 2, 2, 0};
+  const std::vector<char> all(a.size(), 1);
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 1, 2}, all), 1.0);
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, all), 7.0 / 8);
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {0, 0, 0, 0, 0, 0, 0, 0}, all), 3.0 / 8);  // one label matches one cluster
+  std::vector<char> some = all;
+  some[6] = 0;  // the disagreeing texel takes no part
+  EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, some), 1.0);
 }
 
 }  // namespace

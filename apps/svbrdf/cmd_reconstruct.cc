@@ -39,11 +39,11 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--texel-footprint", job->gather.texel_footprint,
                 "meshes without UVs: chart-atlas texel size in pixel footprints at the median view");
   c->add_option("--max-atlas-size", job->gather.max_atlas_size, "meshes without UVs: chart-atlas side cap (texels)");
-  c->add_option_function<double>(
-      "--border-texel-max-offset",
-      [job](double v) { job->gather.border_texel_samples = false, job->gather.border_texel_max_offset = v; },
-      "meshes without UVs: texels outside every chart triangle take no samples when the point they measure is\n"
-      "more than this many texels away (e.g. 0 or 0.5; default: all sampled)");
+  c->add_option("--border-texel-max-offset", job->gather.border_texel_max_offset,
+                "meshes without UVs: texels outside every chart triangle take samples only when the point they measure\n"
+                "lies within this many texels of their centre (default 0: none; their weights are filled in)");
+  c->add_flag("--border-texel-samples", job->gather.border_texel_samples,
+              "meshes without UVs: sample texels outside every chart triangle too (at their clamped point)");
   c->add_option("--footprint-rays", job->gather.footprint_rays,
                 "sample frames from the mean normal of n x n rays per pixel of each lookup (0 = texel-centre normal;\n"
                 "2 suits photos that integrate the pixel, e.g. real cameras, on scans whose normal turns within a pixel)");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -81,7 +82,10 @@ struct Tried {
   double rmse = 0;
   std::vector<double> errors;  // per held-out sample
   bool final = false;          // fully fitted (a finalist), not only screened
+  std::string failed;          // why its fit failed (then it is out of the choice)
 };
+
+constexpr double kFailed = std::numeric_limits<double>::infinity();
 
 
 double SignalRms(const SampleSet& samples, const std::vector<int64_t>& hold) {
@@ -97,6 +101,7 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
   std::vector<size_t> order(tried.size());
   for (size_t j = 0; j < order.size(); ++j) order[j] = j;
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return tried[a].rmse < tried[b].rmse; });
+  while (!order.empty() && !tried[order.back()].failed.empty()) order.pop_back();  // failed fits (rmse +inf) are out
   std::vector<size_t> out(order.begin(), order.begin() + std::min(kFinalists, order.size()));
   if (order.empty()) return out;
   size_t lean = order[0];
@@ -186,10 +191,18 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     ParallelFor(long(candidates.size()), o.threads, [&](long j) {
       const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
       const FitOptions fo = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model screening)"));
-      const FitResult r = FitModel(spec, samples, train, fo,
-                                   spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
-      std::vector<double> e = SampleErrors(spec, r.params, samples, hold);
-      tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
+      // A candidate whose fit fails (Ceres: too many invalid steps, a
+      // non-finite cost) is out of this cluster's choice, not the end of
+      // the reconstruction: the other candidates can still explain it.
+      try {
+        const FitResult r = FitModel(spec, samples, train, fo,
+                                     spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
+        std::vector<double> e = SampleErrors(spec, r.params, samples, hold);
+        tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
+      } catch (const Error& e) {
+        tried[j] = {spec, FitResult{}, kFailed, {}};
+        tried[j].failed = e.what();
+      }
     });
     const std::vector<size_t> finalists = Finalists(tried, o.parsimony * signal);
     // The finalists are compared on out-of-fold errors over all the
@@ -218,23 +231,36 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       // multi-start; the same PSNR on the default and standard presets).
       // The other finalists were screened from the models' own starts.
       const bool warm = t.spec == cl.basis()[k].spec;
-      t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
-      t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params);
-      t.rmse = TrimmedRmse(t.errors);
+      try {
+        t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
+        t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params);
+        t.rmse = TrimmedRmse(t.errors);
+      } catch (const Error& e) {
+        t.rmse = kFailed, t.errors.clear(), t.failed = e.what();
+      }
       t.final = true;
     });
+    for (const Tried& t : tried)
+      if (!t.failed.empty()) log(Msg("cluster ", k, ": candidate ", t.spec.Label(), " left out: ", t.failed));
+    std::vector<size_t> usable;
+    for (size_t j : finalists)
+      if (tried[j].failed.empty()) usable.push_back(j);
+    if (usable.empty()) {  // every fit failed: the clustering's material stays
+      log(Msg("cluster ", k, ": every candidate's fit failed; keeps its clustering model ", cl.basis()[k].spec.Label()));
+      continue;
+    }
     // The fewest parameters unless the best model is better by `parsimony`
     // of the signal's RMS (a difference that shows in a picture) and by
     // `model_min_z` standard errors (paired over held-out samples); fits at
     // their bounds only when clearly better (ChooseModel).
     std::vector<ModelCandidate> final_candidates;
-    for (size_t j : finalists) final_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
-    const int chosen = int(finalists[ChooseModel(final_candidates, cl.basis()[k].spec, o.parsimony * cv_signal, o.model_min_z)]);
+    for (size_t j : usable) final_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
+    const int chosen = int(usable[ChooseModel(final_candidates, cl.basis()[k].spec, o.parsimony * cv_signal, o.model_min_z)]);
     for (size_t j = 0; j < tried.size(); ++j)
       est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen,
                                    tried[j].final});
     std::string others;
-    for (size_t j : finalists)
+    for (size_t j : usable)
       if (int(j) != chosen)
         others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, FitAtBound(tried[j].spec, tried[j].fit.params) ? " at a bound" : "");
     log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (held-out RMSE ", tried[chosen].rmse,

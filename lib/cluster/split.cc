@@ -3,6 +3,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 
 #include "cluster/model_selection.h"
 #include "cluster/nnls.h"
@@ -132,6 +134,24 @@ std::vector<ModelSpec> SplitModels(const ReconstructOptions& o) {
     if (candidate && std::find(specs.begin(), specs.end(), spec) == specs.end()) specs.push_back(spec);
   }
   return specs;
+}
+
+double PartitionAgreement(const std::vector<int>& a, const std::vector<int>& b, const std::vector<char>& usable) {
+  std::map<std::pair<int, int>, long> overlap;
+  long total = 0;
+  for (size_t t = 0; t < a.size() && t < b.size(); ++t)
+    if (t < usable.size() && usable[t]) ++overlap[{a[t], b[t]}], ++total;
+  std::vector<std::pair<long, std::pair<int, int>>> pairs;
+  for (const auto& [ab, n] : overlap) pairs.push_back({n, ab});
+  std::stable_sort(pairs.begin(), pairs.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+  std::set<int> used_a, used_b;
+  long agree = 0;
+  for (const auto& [n, ab] : pairs)
+    if (!used_a.count(ab.first) && !used_b.count(ab.second)) {
+      used_a.insert(ab.first), used_b.insert(ab.second);
+      agree += n;
+    }
+  return total > 0 ? double(agree) / total : 1.0;
 }
 
 double SplitCoherence(const Clustering& cl, const std::vector<int>& side) {

@@ -52,6 +52,11 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
 // texel by texel. 1 when the texels carry a single label.
 double SplitCoherence(const Clustering& cl, const std::vector<int>& side);
 
+// Share of the `usable` texels whose labels in `a` and `b` agree once the
+// labels of b are matched to those of a (greedily, largest overlap first):
+// 1 = the same partition under another numbering.
+double PartitionAgreement(const std::vector<int>& a, const std::vector<int>& b, const std::vector<char>& usable);
+
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`. `first_step_seconds`:

@@ -25,6 +25,8 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: footprint rays must be in [0, 8] per pixel side, got ", footprint_rays));
   if (!(max_foreign_share >= 0 && max_foreign_share <= 1))
     throw Error(Msg("gather: max foreign share must be in [0, 1], got ", max_foreign_share));
+  if (!(border_texel_max_offset >= 0 && std::isfinite(border_texel_max_offset)))
+    throw Error(Msg("gather: border texel max offset must be finite and >= 0 texels, got ", border_texel_max_offset));
   if (max_atlas_size < 16 || max_atlas_size > 16384)
     throw Error(Msg("gather: max atlas size must be in [16, 16384], got ", max_atlas_size));
 }
@@ -134,6 +136,11 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   }
   out.atlas = BuildAtlas(out.mesh, size, size, 1, out.made_uvs);
   const Atlas& atlas = out.atlas;
+  if (out.made_uvs) {
+    const long border = std::count_if(atlas.texels.begin(), atlas.texels.end(), [](const Texel& t) { return !t.interior; });
+    std::fprintf(stderr, "  chart atlas: %zu texels, %ld of them (%.0f %%) outside every chart triangle\n",
+                 atlas.texels.size(), border, 100.0 * border / std::max<size_t>(1, atlas.texels.size()));
+  }
   const long nt = static_cast<long>(atlas.texels.size());
   if (nt == 0) throw Error(Msg(scene.mesh, ": texture coordinates cover no texel of a ", size, "^2 atlas"));
   RayTracer tracer(out.mesh);

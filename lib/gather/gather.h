@@ -54,21 +54,24 @@ struct GatherOptions {
   // Generated chart atlases (meshes without UVs): texels outside every UV
   // triangle (the dilation ring around each chart, and texels claimed by
   // triangles smaller than a texel) measure a point clamped onto a chart
-  // border, not the surface under the texel. On the bunny scan they are half
-  // of the texels and carried 76 % of the squared disagreement between the
-  // gathered samples and the true material (Mitsuba capture, see
-  // bench_results/independent.md); without any of their samples the held-out
-  // error of the 3-cluster state fell from 0.071 to 0.048. Their weights then
-  // come from the neighbour fill (cluster/confidence.cc). true = sample them
-  // too: the default, because on the tiny no-UV sphere of
-  // e2e_reconstruct_test the rule below cost 1.7 dB (43.6 vs 45.3 dB).
-  bool border_texel_samples = true;
+  // border, not the surface under the texel; they exist for the bilinear
+  // lookups at chart borders. They take no samples (false, the default):
+  // their weights come from the neighbour fill (cluster/confidence.cc:
+  // their own chart's texels, across the seam when the chart has none).
+  // On the Mitsuba bunny scan (bench_results/independent.md) their samples
+  // were half of all samples and carried 76 % of the squared disagreement
+  // between the samples and the true material (chart borders follow creases,
+  // where the normal turns within a pixel): without them 35.6 -> 38.4 dB
+  // held-out and 20 -> 7 s CPU. They used to be needed on the small
+  // synthetic bunny of e2e_reconstruct_test (70 % border texels) only
+  // because charts of one sliver triangle then had no texel with a value at
+  // all and relit black (32.7 dB instead of 36.1); the seam fill and chart
+  // merging fixed that (38.2 dB). true = sample them too (as before).
+  bool border_texel_samples = false;
   // ... except those whose clamped point lies within this many texels of the
-  // texel centre (they still measure the surface under the texel). 0.5: the
-  // small synthetic bunny of e2e_reconstruct_test (70 % border texels) keeps
-  // 36.3 dB without UVs (0 here: 32.5 dB, UV twin 37.1); the Mitsuba bunny
-  // 32.65 dB, 5 materials for 3 (0 here: 32.5 dB, 3 materials).
-  double border_texel_max_offset = 0.5;
+  // texel centre (they still measure the surface under the texel; 0.5 keeps
+  // most texels claimed by sub-texel triangles).
+  double border_texel_max_offset = 0.0;
   // Pixel value (integer files normalised to [0, 1]; float files as stored,
   // 1 = a well exposed white) below which a sample carries no signal.
   double noise_floor = 2.0 / 255;
