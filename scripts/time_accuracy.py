@@ -6,6 +6,7 @@ relight the capture's held-out views -> evaluate. One run without a budget is
 the reference. Writes OUT.json, OUT.md and OUT.png.
 
 Usage:
+  scripts/time_accuracy.py --replot [--out bench_results/time_accuracy]   (md and png from the json)
   scripts/time_accuracy.py --capture CAP [--capture CAP2 ...] [--budgets 2,5,10,20,40,80,120]
                            [--out bench_results/time_accuracy] [--binary build/apps/svbrdf]
 CAP is a capture folder with scene.json and heldout/scene.json (svbrdf synth --preset standard --out CAP).
@@ -49,11 +50,18 @@ def psnr(binary, mat, heldout, work):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--capture", action="append", required=True)
+    ap.add_argument("--capture", action="append")
+    ap.add_argument("--replot", action="store_true", help="only rewrite OUT.md and OUT.png from OUT.json")
     ap.add_argument("--budgets", default="2,5,10,20,40,80,120")
     ap.add_argument("--out", default=os.path.join(ROOT, "bench_results", "time_accuracy"))
     ap.add_argument("--binary", default=os.path.join(ROOT, "build", "apps", "svbrdf"))
     a = ap.parse_args()
+    if a.replot:
+        results = json.load(open(a.out + ".json"))
+        write_md_png(results, a.out)
+        return
+    if not a.capture:
+        ap.error("--capture is required (or --replot)")
     budgets = [float(b) for b in a.budgets.split(",")]
     load = os.getloadavg()
     results = {"budgets_s": budgets, "nproc": os.cpu_count(), "load_average_at_start": load[0],
@@ -79,7 +87,11 @@ def main():
         results["captures"].append({"capture": os.path.basename(cap.rstrip("/")), "runs": runs})
     shutil.rmtree(work, ignore_errors=True)
     json.dump(results, open(a.out + ".json", "w"), indent=2)
+    write_md_png(results, a.out)
 
+
+def write_md_png(results, out):
+    load = [results["load_average_at_start"]]
     L = ["# Time-accuracy: `reconstruct --time-budget`", "",
          "Held-out PSNR (sRGB, mean over the capture's held-out views) of the material returned within each "
          "budget; budget 0 = no budget (reference). Wall and CPU time of the whole `reconstruct` process "
@@ -94,7 +106,7 @@ def main():
                 "none" if r["budget_s"] == 0 else "%g" % r["budget_s"], r["wall_s"], r["cpu_s"], r.get("load_1min_after", 0),
                 r["clusters"], r["psnr_mean_db"], r["psnr_min_db"]))
         L.append("")
-    open(a.out + ".md", "w").write("\n".join(L) + "\n")
+    open(out + ".md", "w").write("\n".join(L) + "\n")
 
     import matplotlib
     matplotlib.use("Agg")
@@ -114,8 +126,8 @@ def main():
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(a.out + ".png", dpi=110)
-    print("wrote", a.out + ".{json,md,png}")
+    fig.savefig(out + ".png", dpi=110)
+    print("wrote", out + ".{json,md,png}")
 
 
 if __name__ == "__main__":

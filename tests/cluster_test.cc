@@ -2,6 +2,8 @@
 // generated in code (known materials, known texel labels).
 #include <gtest/gtest.h>
 
+#include "test_meshes.h"
+
 #include <algorithm>
 #include <chrono>
 #include <random>
@@ -769,27 +771,16 @@ TEST(FewPhotos, TexelsSeenOnlyByHeldOutPhotosAreLabelledByTheirSamples) {
     if (t != 50) EXPECT_EQ(cl.assign()[t], label[t]) << "texel " << t;
 }
 
-// Two unit squares side by side in 3D (x in [0, 1] and [1, 2]) as two charts
-// of a 40^2 atlas: A on the left of the texture, B mirrored on the right,
-// so their shared edge x = 1 lies at the right border of both.
-Mesh TwoChartStrip() {
-  Mesh m;
-  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(2, 0, 0), Vec3(2, 1, 0)};
-  m.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(1, 4, 5), Vec3i(1, 5, 2)};
-  m.texcoords = {Vec2(0.05, 0.3), Vec2(0.45, 0.3), Vec2(0.45, 0.7), Vec2(0.05, 0.7),
-                 Vec2(0.95, 0.3), Vec2(0.55, 0.3), Vec2(0.55, 0.7), Vec2(0.95, 0.7)};
-  m.face_uvs = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(4, 5, 6), Vec3i(4, 6, 7)};
-  m.ComputeNormals();
-  return m;
-}
+using test_meshes::TwoChartStrip;  // tests/test_meshes.h
 
 TEST(Confidence, TexelsWithoutSamplesTakeTheWeightsOfTheirSurfaceNeighbours) {
   // Only chart A's interior texels have samples (as when chart B is a sliver
   // whose texels are all border texels): material 0 below y = 0.5, material
   // 1 above. Texture neighbours never reach chart B; before the surface
-  // fill its texels kept zero weights (relit black). Now every texel of B,
-  // and A's ring of border texels, takes the weights of A's texel nearest on
-  // the surface: the material at its own height.
+  // fill its texels kept zero weights (relit black). Now A's ring of border
+  // texels takes the weights of A's texel nearest on the surface, and B is
+  // filled over surface neighbours across the seam: the material at its own
+  // height dominates.
   const Atlas atlas = BuildAtlas(TwoChartStrip(), 40, 40, 1);
   const int nt = int(atlas.texels.size()), K = 2;
   SampleSet s;

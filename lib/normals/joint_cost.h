@@ -190,11 +190,7 @@ struct NormalJointCost {
           for (int j = 0; j < m; ++j) pred += w[j * 3 + c] * P[(size_t(s) * m + j) * 3 + c];
           r[c] = scale * (pred - y[s * 3 + c]);
         }
-        if (cauchy > 0) {
-          const T u = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / (cauchy * cauchy);
-          const T f = sqrt(u < T(1e-8) ? T(1.0) - u * 0.5 : log1p(u) / u);
-          for (int c = 0; c < 3; ++c) r[c] *= f;
-        }
+        ApplyCauchy(cauchy, r);
       }
     }
     residual[3 * n] = prior_scale * ab[0];

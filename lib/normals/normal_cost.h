@@ -118,6 +118,19 @@ struct NormalSampleCost {
   }
 };
 
+// A sample's RGB residual scaled so that its square is the Cauchy loss
+// c^2 log(1 + |r|^2 / c^2) (no scaling for c <= 0).
+template <class T>
+inline void ApplyCauchy(double cauchy, T* r) {
+  if (!(cauchy > 0)) return;
+  using std::log1p;
+  using std::sqrt;
+  const T u = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / (cauchy * cauchy);
+  // log1p(u)/u -> 1 as u -> 0; the series avoids 0/0 and its NaN derivative.
+  const T f = sqrt(u < T(1e-8) ? T(1.0) - u * 0.5 : log1p(u) / u);
+  for (int c = 0; c < 3; ++c) r[c] *= f;
+}
+
 // All samples of one texel's normal fit in one residual block (3 residuals
 // per sample, then the 2 of the tilt prior): Ceres' per-block overhead and
 // allocations are paid once per texel instead of once per sample. Sample i's
@@ -144,12 +157,7 @@ struct NormalBatchCost {
         continue;
       }
       NormalSampleCost{&(*samples)[i], (*basis)[i], sqrt((*weight)[i])}(ab, r);
-      if (cauchy > 0) {
-        const T u = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / (cauchy * cauchy);
-        // log1p(u)/u -> 1 as u -> 0; the series avoids 0/0 and its NaN derivative.
-        const T f = sqrt(u < T(1e-8) ? T(1.0) - u * 0.5 : log1p(u) / u);
-        for (int c = 0; c < 3; ++c) r[c] *= f;
-      }
+      ApplyCauchy(cauchy, r);
     }
     residual[3 * n] = prior_scale * ab[0];
     residual[3 * n + 1] = prior_scale * ab[1];

@@ -225,13 +225,17 @@ class Refiner {
     for (size_t i = 0; i < fit.samples.size(); ++i) per_sample[i] = &basis[fit.source[i]];
     const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, robust_mult * o_.robust_sigmas * sigma) : 0.0;
     const normals::NormalBatchCost cost{&fit.samples, &per_sample, &fit.weight, cauchy, sigma / o_.prior_tilt};
+    normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), TiltOptions(), ab);
+  }
+
+  normals::TiltSolverOptions TiltOptions() const {
     normals::TiltSolverOptions so;
     so.max_iterations = o_.max_iterations;
     // A tilt to 1e-6 is far below what a photo resolves; tighter only adds iterations.
     so.function_tolerance = 1e-6;
     so.parameter_tolerance = 1e-6;
     so.bound = max_ab_;
-    normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), so, ab);
+    return so;
   }
 
   // As SolveNormal, with every source's weights solved at each trial tilt
@@ -263,12 +267,7 @@ class Refiner {
     if (sources[0].basis.empty()) return true;
     const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, robust_mult * o_.robust_sigmas * sigma) : 0.0;
     const normals::NormalJointCost cost{&fit.samples, &sources, &fit.weight, cauchy, sigma / o_.prior_tilt};
-    normals::TiltSolverOptions so;
-    so.max_iterations = o_.max_iterations;
-    so.function_tolerance = 1e-6;
-    so.parameter_tolerance = 1e-6;
-    so.bound = max_ab_;
-    normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), so, ab);
+    normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), TiltOptions(), ab);
     return true;
   }
 
