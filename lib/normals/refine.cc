@@ -204,15 +204,12 @@ class Refiner {
       for (int64_t i = s_.texel_begin[u]; i < s_.texel_begin[u + 1]; ++i) *pooled += o_.neighbour_weight * Wanted(i, which);
   }
 
+  // Texel t's support materials with non-zero weights `w`.
   std::vector<WeightedBasis> Basis(int t, const float* w) const {
-    std::vector<WeightedBasis> out;
-    for (int k : support_[t]) {
-      WeightedBasis b;
-      b.spec = &est_.basis[k].spec;
-      b.params = est_.basis[k].params;
-      for (int c = 0; c < 3; ++c) b.w[c] = w[k * 3 + c];
-      if (b.w[0] > 0 || b.w[1] > 0 || b.w[2] > 0) out.push_back(std::move(b));
-    }
+    std::vector<WeightedBasis> out = SupportBasis(t, w);
+    out.erase(std::remove_if(out.begin(), out.end(),
+                             [](const WeightedBasis& b) { return !(b.w[0] > 0 || b.w[1] > 0 || b.w[2] > 0); }),
+              out.end());
     return out;
   }
 
