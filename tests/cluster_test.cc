@@ -11,7 +11,7 @@
 #include <set>
 
 #include "atlas/atlas.h"
-#include "cluster/adjacency.h"
+#include "atlas/surface_neighbours.h"
 #include "cluster/clustering.h"
 #include "cluster/confidence.h"
 #include "cluster/holdout.h"
@@ -634,7 +634,7 @@ TEST(FewPhotos, TexelsNoPhotoSawAreFilledAcrossTheSeamAndCounted) {
     const int k = x >= w / 2 ? 1 : 0;             // material 1 on the right half, up to the seam
     for (int c = 0; c < 3; ++c) est.weights[(size_t(t) * K + k) * 3 + c] = x == 1 ? 0.7f : 1.0f;
   }
-  ConfidenceAndFill(s, a, Quiet(), K, &est);
+  ConfidenceAndFill(s, a, Quiet(), K, SurfaceNeighbours(a), &est);
   EXPECT_EQ(est.texels_without_samples, h);
   EXPECT_EQ(est.texels_filled, h);
   for (int y = 0; y < h; ++y) {
@@ -806,7 +806,7 @@ TEST(Confidence, TexelsWithoutSamplesTakeTheWeightsOfTheirSurfaceNeighbours) {
     s.texel_begin.push_back(s.size());
   }
   ReconstructOptions o;
-  ConfidenceAndFill(s, atlas, o, K, &est);
+  ConfidenceAndFill(s, atlas, o, K, SurfaceNeighbours(atlas), &est);
   int chart_b = 0, ring_a = 0;
   for (int t = 0; t < nt; ++t) {
     const Texel& tx = atlas.texels[t];

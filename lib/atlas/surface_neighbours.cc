@@ -23,30 +23,37 @@ double MedianTexelSpacing(const Atlas& atlas) {
 
 namespace {
 
-// Known texels bucketed in a uniform 3D grid.
+// A subset of the texels (`member`) bucketed in a uniform 3D grid of
+// `cell`-sized cells.
 class TexelGrid {
  public:
-  TexelGrid(const Atlas& atlas, const std::vector<char>& known, double cell) : atlas_(atlas), cell_(cell) {
+  TexelGrid(const Atlas& atlas, const std::vector<char>& member, double cell) : atlas_(atlas), cell_(cell) {
     for (int u = 0; u < int(atlas.texels.size()); ++u)
-      if (known[u]) cells_[Key(Cell(atlas.texels[u].position))].push_back(u);
+      if (member[u]) cells_[Key(Cell(atlas.texels[u].position))].push_back(u);
   }
-  // Nearest known texel within `rings` cells of p's cell (-1: none there).
-  int Nearest(const Vec3& p, const Vec3& n, int rings, bool same_side) const {
+  // Calls visit(u) for every member in the (2 rings + 1)^3 cells around p's
+  // cell (and, rarely, in cells 2^21 cells away that share their keys).
+  template <class Visit>
+  void ForEachNear(const Vec3& p, int rings, const Visit& visit) const {
     const Eigen::Vector3i c = Cell(p);
-    int best = -1;
-    double best_d2 = 1e300;
     for (int dz = -rings; dz <= rings; ++dz)
       for (int dy = -rings; dy <= rings; ++dy)
         for (int dx = -rings; dx <= rings; ++dx) {
           const auto it = cells_.find(Key(c + Eigen::Vector3i(dx, dy, dz)));
           if (it == cells_.end()) continue;
-          for (int u : it->second) {
-            const Texel& tu = atlas_.texels[u];
-            if (same_side && !(tu.normal.dot(n) > 0)) continue;
-            const double d2 = (tu.position - p).squaredNorm();
-            if (d2 < best_d2 || (d2 == best_d2 && u < best)) best_d2 = d2, best = u;
-          }
+          for (int u : it->second) visit(u);
         }
+  }
+  // Nearest member within `rings` cells of p's cell (-1: none there).
+  int Nearest(const Vec3& p, const Vec3& n, int rings, bool same_side) const {
+    int best = -1;
+    double best_d2 = 1e300;
+    ForEachNear(p, rings, [&](int u) {
+      const Texel& tu = atlas_.texels[u];
+      if (same_side && !(tu.normal.dot(n) > 0)) return;
+      const double d2 = (tu.position - p).squaredNorm();
+      if (d2 < best_d2 || (d2 == best_d2 && u < best)) best_d2 = d2, best = u;
+    });
     return best;
   }
 
@@ -62,6 +69,10 @@ class TexelGrid {
   double cell_;
   std::unordered_map<uint64_t, std::vector<int>> cells_;
 };
+
+constexpr int kGrid8[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+
+bool GridAdjacent(const Texel& a, const Texel& b) { return std::abs(a.x - b.x) <= 1 && std::abs(a.y - b.y) <= 1; }
 
 }  // namespace
 
@@ -104,6 +115,77 @@ std::vector<int> NearestKnownTexels(const Atlas& atlas, const std::vector<char>&
     }
   }, 64);
   return out;
+}
+
+std::vector<std::vector<int>> SurfaceNeighbours(const Atlas& atlas, double reach) {
+  const int nt = static_cast<int>(atlas.texels.size());
+  std::vector<std::vector<int>> nb(nt);
+  std::vector<double> spacing(nt, 0.0);
+  std::vector<char> border(nt, 0);
+  for (int t = 0; t < nt; ++t) {
+    const Texel& tx = atlas.texels[t];
+    double sum = 0;
+    int n4 = 0;
+    for (int d = 0; d < 8; ++d) {
+      const int x = tx.x + kGrid8[d][0], y = tx.y + kGrid8[d][1];
+      if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
+      const int u = atlas.At(x, y);
+      if (u < 0) continue;
+      nb[t].push_back(u);
+      if (d < 4) sum += (atlas.texels[u].position - tx.position).norm(), ++n4;
+    }
+    spacing[t] = n4 ? sum / n4 : 0.0;
+    border[t] = nb[t].size() < 8;
+  }
+  // Texels with no grid 4-neighbour (single-texel charts) take the median spacing.
+  std::vector<double> known;
+  for (double s : spacing)
+    if (s > 0) known.push_back(s);
+  if (known.empty() || std::count(border.begin(), border.end(), char(1)) == 0) return nb;
+  std::nth_element(known.begin(), known.begin() + known.size() / 2, known.end());
+  const double median = known[known.size() / 2];
+  double cell = 0;
+  for (int t = 0; t < nt; ++t) {
+    if (!border[t]) continue;
+    if (spacing[t] <= 0) spacing[t] = median;
+    // Degenerate spacings (many texels at one pole) must not hide neighbours
+    // one row further: at least a tenth of the typical spacing.
+    spacing[t] = std::max(spacing[t], 0.1 * median);
+    cell = std::max(cell, reach * spacing[t]);
+  }
+  // Cells of the largest reach: every pair within reach is in adjacent cells.
+  const TexelGrid grid(atlas, border, cell);
+  std::vector<std::vector<int>> extra(nt);
+  for (int t = 0; t < nt; ++t) {
+    if (!border[t]) continue;
+    const Texel& a = atlas.texels[t];
+    grid.ForEachNear(a.position, 1, [&](int u) {
+      if (u <= t) return;  // each pair once
+      const Texel& b = atlas.texels[u];
+      if (GridAdjacent(a, b)) return;
+      const double r = reach * std::max(spacing[t], spacing[u]);
+      if ((a.position - b.position).squaredNorm() > r * r || a.normal.dot(b.normal) <= 0.5) return;
+      extra[t].push_back(u);
+      extra[u].push_back(t);
+    });
+  }
+  for (int t = 0; t < nt; ++t) {
+    std::sort(extra[t].begin(), extra[t].end());
+    extra[t].erase(std::unique(extra[t].begin(), extra[t].end()), extra[t].end());
+    nb[t].insert(nb[t].end(), extra[t].begin(), extra[t].end());
+  }
+  return nb;
+}
+
+int CountSeamTexels(const Atlas& atlas, const std::vector<std::vector<int>>& neighbours) {
+  int n = 0;
+  for (size_t t = 0; t < neighbours.size() && t < atlas.texels.size(); ++t)
+    for (int u : neighbours[t])
+      if (!GridAdjacent(atlas.texels[t], atlas.texels[u])) {
+        ++n;
+        break;
+      }
+  return n;
 }
 
 }  // namespace svbrdf

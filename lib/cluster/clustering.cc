@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "cluster/adjacency.h"
+#include "atlas/surface_neighbours.h"
 #include "cluster/holdout.h"
 #include "core/error.h"
 #include "core/parallel.h"

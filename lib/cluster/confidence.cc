@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "atlas/surface_neighbours.h"
-#include "cluster/adjacency.h"
+#include "core/error.h"
 #include "core/types.h"
 
 namespace svbrdf {
@@ -45,7 +45,9 @@ int FillFromNeighbours(const std::vector<std::vector<int>>& nb, int K, std::vect
 }  // namespace
 
 void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o, int num_basis,
-                       SvbrdfEstimate* est_out) {
+                       const std::vector<std::vector<int>>& neighbours, SvbrdfEstimate* est_out) {
+  if (int(neighbours.size()) != samples.num_texels)
+    throw Error(Msg("ConfidenceAndFill: ", neighbours.size(), " neighbour lists for ", samples.num_texels, " texels"));
   SvbrdfEstimate& est = *est_out;
   const int K = num_basis;
   const int nt = samples.num_texels;
@@ -104,7 +106,7 @@ void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const Recon
   std::vector<char> border(nt);
   for (int t = 0; t < nt; ++t) border[t] = !known[t] && !atlas.texels[t].interior;
   if (std::count(border.begin(), border.end(), 1) > 0) copy_from(NearestKnownTexels(atlas, known, border, 2.0));
-  FillFromNeighbours(SurfaceNeighbours(atlas), K, &est.weights, &known);
+  FillFromNeighbours(neighbours, K, &est.weights, &known);
   // Texels the fill never reached lie in charts without a single known
   // texel (generated atlases: a sliver or folded triangle alone in its
   // chart, with no known texel within two texels either): they take the

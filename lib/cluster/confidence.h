@@ -2,6 +2,8 @@
 // count and spread of its samples, and weights of texels without confident
 // ones filled in from their neighbours; the label map from the weights.
 #pragma once
+#include <vector>
+
 #include "atlas/atlas.h"
 #include "cluster/reconstruct.h"
 #include "gather/samples.h"
@@ -10,7 +12,9 @@ namespace svbrdf {
 
 // Needs est->weights (K = est->basis size or `num_basis`); sets num_texels,
 // confidence and label, and rewrites the weights of unconfident texels.
+// `neighbours`: the texels' surface neighbours (SurfaceNeighbours, as the
+// clustering keeps them: one list per texel of `samples`).
 void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o, int num_basis,
-                       SvbrdfEstimate* est);
+                       const std::vector<std::vector<int>>& neighbours, SvbrdfEstimate* est);
 
 }  // namespace svbrdf

@@ -104,7 +104,7 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
             q.poorly_explained ? ": POORLY EXPLAINED by every candidate model" : ""));
 
   // 5. Confidence and neighbour fill (confidence.cc).
-  ConfidenceAndFill(samples, atlas, o, cl.K(), &est);
+  ConfidenceAndFill(samples, atlas, o, cl.K(), cl.neighbours(), &est);
   log(Msg(est.texels_without_samples, " texels no photo saw: ", est.texels_filled,
           " filled from their neighbours on the surface"));
   for (int k = 0; k < cl.K(); ++k) cl.basis()[k].name = Msg("m", k);
