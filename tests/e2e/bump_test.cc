@@ -10,8 +10,8 @@
 #include <filesystem>
 
 #include "evaluate/metrics.h"
+#include "heldout.h"
 #include "pipeline/reconstruction.h"
-#include "relight/relight.h"
 #include "synth/capture.h"
 
 namespace svbrdf {
@@ -36,11 +36,7 @@ Outcome Reconstruct(const std::string& dir, const std::string& tag, int bootstra
   job.report = false;
   Outcome r;
   r.summary = RunReconstruction(job);
-  const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
-  RelightOptions rl;
-  rl.progress = false;
-  RelightScene(LoadMaterial(job.out_dir), held, dir + "/relit_" + tag, rl);
-  r.psnr = CompareToScene(held, dir + "/relit_" + tag).mean_psnr_srgb;
+  r.psnr = e2e::HeldOutComparison(LoadMaterial(job.out_dir), dir + "/capture", dir + "/relit_" + tag).mean_psnr_srgb;
   return r;
 }
 

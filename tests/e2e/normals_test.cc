@@ -9,9 +9,9 @@
 
 #include "atlas/atlas.h"
 #include "evaluate/metrics.h"
+#include "heldout.h"
 #include "normals/normal_map.h"
 #include "pipeline/reconstruction.h"
-#include "relight/relight.h"
 #include "synth/capture.h"
 
 namespace svbrdf {
@@ -42,11 +42,7 @@ Outcome Reconstruct(const std::string& dir, const std::string& mode) {
   Outcome r;
   r.summary = RunReconstruction(job);
   r.material = LoadMaterial(job.out_dir);
-  const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
-  RelightOptions rl;
-  rl.progress = false;
-  RelightScene(r.material, held, dir + "/relit_" + mode, rl);
-  r.psnr = CompareToScene(held, dir + "/relit_" + mode).mean_psnr_srgb;
+  r.psnr = e2e::HeldOutComparison(r.material, dir + "/capture", dir + "/relit_" + mode).mean_psnr_srgb;
   return r;
 }
 

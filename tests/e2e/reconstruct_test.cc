@@ -13,8 +13,8 @@
 #include "brdf/fresnel.h"
 #include "core/error.h"
 #include "evaluate/metrics.h"
+#include "heldout.h"
 #include "pipeline/reconstruction.h"
-#include "relight/relight.h"
 #include "synth/capture.h"
 #include "synth/ground_truth.h"
 
@@ -88,11 +88,7 @@ Outcome RunCase(const std::string& name, SynthOptions o, ReconstructOptions ro =
   const Material rec = LoadMaterial(job.out_dir), gt = LoadMaterial(dir + "/capture/gt");
   out.clusters = static_cast<int>(rec.basis.size());
   for (const auto& b : rec.basis) out.labels.push_back(b.spec.Label());
-  const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
-  RelightOptions rl;
-  rl.progress = false;
-  RelightScene(rec, held, dir + "/relit", rl);
-  const SceneComparison cmp = CompareToScene(held, dir + "/relit");
+  const SceneComparison cmp = e2e::HeldOutComparison(rec, dir + "/capture", dir + "/relit");
   out.psnr_mean = cmp.mean_psnr_srgb;
   out.psnr_min = cmp.min_psnr_srgb;
 
@@ -241,11 +237,7 @@ TEST(Reconstruct, TimeBudgetGivesACompleteMaterial) {
   EXPECT_TRUE(fs::exists(job.out_dir + "/report/summary.json"));
   const Material m = LoadMaterial(job.out_dir);
   ASSERT_GE(m.basis.size(), 1u);
-  const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
-  RelightOptions rl;
-  rl.progress = false;
-  RelightScene(m, held, dir + "/relit", rl);
-  EXPECT_GT(CompareToScene(held, dir + "/relit").mean_psnr_srgb, 20.0);
+  EXPECT_GT(e2e::HeldOutComparison(m, dir + "/capture", dir + "/relit").mean_psnr_srgb, 20.0);
   job.time_budget_s = -1;
   EXPECT_THROW(RunReconstruction(job), Error);
   fs::remove_all(dir);
