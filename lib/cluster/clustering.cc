@@ -142,22 +142,13 @@ double Clustering::ScaledError(int t, int k, int which) const {
 long Clustering::Assign() {
   std::vector<int> next(assign_);
   const int K = this->K();
-  std::vector<double> err(size_t(nt_) * K, 0.0);
   // Texels too sparse for fits are still assigned (their neighbours help),
   // so that their weights mix the right materials.
+  const std::vector<double> err = TexelErrors(train_count_, 0);
   ParallelFor(nt_, o_.threads, [&](long t) {
     if (train_count_[t] == 0) return;
-    for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, false);
-  }, 512);
-  ParallelFor(nt_, o_.threads, [&](long t) {
-    if (train_count_[t] == 0) return;
-    double best = 1e300;
-    for (int k = 0; k < K; ++k) {
-      double e = err[size_t(t) * K + k];
-      for (int u : neighbours_[t])
-        if (train_count_[u] > 0) e += 0.5 * err[size_t(u) * K + k];
-      if (e < best) best = e, next[t] = k;
-    }
+    const int k = PooledBest(err, int(t), train_count_);
+    if (k >= 0) next[t] = k;
   }, 512);
   FillLabels(neighbours_, train_count_, K, &next);
   long changed = 0;
@@ -199,25 +190,39 @@ void FillLabels(const std::vector<std::vector<int>>& neighbours, const std::vect
   }
 }
 
+std::vector<double> Clustering::TexelErrors(const std::vector<int>& count, int which) const {
+  const int K = this->K();
+  std::vector<double> err(size_t(nt_) * K, 0.0);
+  ParallelFor(nt_, o_.threads, [&](long t) {
+    if (count[t] == 0) return;
+    for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, which);
+  }, 512);
+  return err;
+}
+
+int Clustering::PooledBest(const std::vector<double>& err, int t, const std::vector<int>& count) const {
+  const int K = this->K();
+  double best = 1e300;
+  int chosen = -1;
+  for (int k = 0; k < K; ++k) {
+    double e = err[size_t(t) * K + k];
+    for (int u : neighbours_[t])
+      if (count[u] > 0) e += 0.5 * err[size_t(u) * K + k];
+    if (e < best) best = e, chosen = k;
+  }
+  return chosen;
+}
+
 void Clustering::LabelUnseenByAllSamples() {
   const int K = this->K();
   std::vector<int> count(nt_), next(assign_);
-  std::vector<double> err(size_t(nt_) * K, 0.0);
   for (int t = 0; t < nt_; ++t) count[t] = int(s_.texel_begin[t + 1] - s_.texel_begin[t]);
-  ParallelFor(nt_, o_.threads, [&](long t) {
-    if (count[t] == 0) return;
-    for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, 2);
-  }, 512);
+  const std::vector<double> err = TexelErrors(count, 2);
   // Texels that only held-out photos saw: pooled as in Assign, on all samples.
   for (int t = 0; t < nt_; ++t) {
     if (train_count_[t] > 0 || count[t] == 0) continue;
-    double best = 1e300;
-    for (int k = 0; k < K; ++k) {
-      double e = err[size_t(t) * K + k];
-      for (int u : neighbours_[t])
-        if (count[u] > 0) e += 0.5 * err[size_t(u) * K + k];
-      if (e < best) best = e, next[t] = k;
-    }
+    const int k = PooledBest(err, t, count);
+    if (k >= 0) next[t] = k;
   }
   FillLabels(neighbours_, count, K, &next);
   assign_ = next;

@@ -141,6 +141,11 @@ class Clustering {
 
  private:
   std::vector<float> Predict(const BasisMaterial& b) const;
+  // ScaledError(t, k, which) of every texel with count[t] > 0, t-major (K per texel).
+  std::vector<double> TexelErrors(const std::vector<int>& count, int which) const;
+  // The cluster with the lowest error of texel t pooled with half its
+  // neighbours' (those with count > 0), as Assign chooses; -1 if none.
+  int PooledBest(const std::vector<double>& err, int t, const std::vector<int>& count) const;
 
   const SampleSet& s_;
   const ReconstructOptions& o_;
