@@ -123,6 +123,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   nlohmann::json normals_rounds = nlohmann::json::array();
   const NormalRefinement nr =
       RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds);
+  const MergeReport merge = MergeSameMaterials(g, eo, nr, job.merge, cluster_seconds, &timer, &est);
 
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);
@@ -144,6 +145,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                         {"saturated", g.stats.saturated}, {"invalid_pixel", g.stats.invalid}};
   summary["warnings"] = g.stats.warnings;
   summary["clusters"] = est.basis.size();
+  summary["merge"] = {{"merges", merge.merges}, {"tried", merge.lines}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
   summary["heldout_rmse"] = est.heldout_rmse;

@@ -9,6 +9,7 @@
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
 #include "normals/refine.h"
+#include "pipeline/merge_stage.h"
 #include "pipeline/normal_stage.h"
 
 namespace svbrdf {
@@ -20,6 +21,7 @@ struct ReconstructionJob {
   ReconstructOptions estimate;
   NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
   NormalAlternationOptions alternation;  // normals <-> materials bootstrap (normal_stage.h)
+  MergeOptions merge;                    // same-family materials merged in the refined frames (merge_stage.h)
   bool report = true;  // pictures and summary under out_dir/report
   // Anytime (seconds, 0 = none): the best material found within this wall
   // time from the start, always a complete folder. Gathering and one cluster

@@ -1,0 +1,199 @@
+#include "pipeline/merge_stage.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <utility>
+
+#include "cluster/holdout.h"
+#include "cluster/stats.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "fit/fit.h"
+
+namespace svbrdf {
+
+SvbrdfEstimate WithMaterialsMerged(const SvbrdfEstimate& est, int into, int from) {
+  const int K = int(est.basis.size());
+  if (into == from || into < 0 || from < 0 || into >= K || from >= K)
+    throw Error(Msg("merge: materials ", into, " and ", from, " of ", K, " cannot be merged"));
+  SvbrdfEstimate out = est;
+  // The larger cluster's material (most texels) starts the refit.
+  long n_into = 0, n_from = 0;
+  for (int l : est.label) n_into += l == into, n_from += l == from;
+  if (n_from > n_into) out.basis[into] = est.basis[from];
+  out.basis.erase(out.basis.begin() + from);
+  for (int& l : out.label) {
+    if (l == from) l = into;
+    if (l > from) --l;
+  }
+  out.weights.clear();
+  return out;
+}
+
+bool MergePays(double merged_rmse, double apart_rmse, double min_improvement) {
+  return apart_rmse >= (1.0 - min_improvement) * merged_rmse;
+}
+
+namespace {
+
+// Held-out squared error of one texel's samples predicted as a non-negative
+// mix of the given materials' predictions, the weights solved on the
+// texel's training samples (as the mixing weights are).
+double MixedTexelError(const SampleSet& samples, const std::vector<int64_t>& train, const std::vector<int64_t>& hold,
+                       const std::vector<const BasisMaterial*>& mats) {
+  const int n = int(mats.size());
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd aty = Eigen::VectorXd::Zero(n);
+  for (int64_t s : train) {
+    Eigen::Matrix<double, 3, Eigen::Dynamic> a(3, n);
+    for (int k = 0; k < n; ++k) a.col(k) = PredictSample(mats[k]->spec, mats[k]->params.data(), samples, s).matrix();
+    const Eigen::Vector3d y(samples.y[0][s], samples.y[1][s], samples.y[2][s]);
+    ata += a.transpose() * a, aty += a.transpose() * y;
+  }
+  // Non-negative least squares by enumerating the active sets (n <= 2).
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(n);
+  double best = 0;  // objective relative to ||y||^2: -2 w.aty + w' ata w
+  for (int mask = 1; mask < (1 << n); ++mask) {
+    std::vector<int> idx;
+    for (int k = 0; k < n; ++k)
+      if (mask & (1 << k)) idx.push_back(k);
+    Eigen::MatrixXd m(idx.size(), idx.size());
+    Eigen::VectorXd r(idx.size());
+    for (size_t p = 0; p < idx.size(); ++p) {
+      r[p] = aty[idx[p]];
+      for (size_t q = 0; q < idx.size(); ++q) m(p, q) = ata(idx[p], idx[q]);
+    }
+    const Eigen::VectorXd x = m.ldlt().solve(r);
+    if ((x.array() < 0).any() || !x.allFinite()) continue;
+    Eigen::VectorXd cand = Eigen::VectorXd::Zero(n);
+    for (size_t p = 0; p < idx.size(); ++p) cand[idx[p]] = x[p];
+    const double obj = -2 * cand.dot(aty) + cand.dot(ata * cand);
+    if (obj < best) best = obj, w = cand;
+  }
+  double sse = 0;
+  for (int64_t s : hold) {
+    Rgb p = Rgb::Zero();
+    for (int k = 0; k < n; ++k) p += w[k] * PredictSample(mats[k]->spec, mats[k]->params.data(), samples, s);
+    for (int c = 0; c < 3; ++c) sse += (p[c] - samples.y[c][s]) * (p[c] - samples.y[c][s]);
+  }
+  return sse;
+}
+
+}  // namespace
+
+MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
+                    int i, int j, const std::vector<char>& held_image, const FitOptions& fo) {
+  std::vector<int64_t> train[2], train_both;
+  std::vector<int> texels;
+  for (int t = 0; t < samples.num_texels; ++t) {
+    const int side = label[t] == i ? 0 : label[t] == j ? 1 : -1;
+    if (side < 0) continue;
+    texels.push_back(t);
+    for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
+      const int im = samples.image[s];
+      if (im >= 0 && im < int(held_image.size()) && held_image[im]) continue;
+      train[side].push_back(s);
+      train_both.push_back(s);
+    }
+  }
+  MergeTest r;
+  if (train[0].empty() || train[1].empty()) return r;
+  // Apart: each material fitted again on its own training samples, as the
+  // merged one is (the same options), from its current parameters.
+  BasisMaterial apart[2] = {basis[i], basis[j]};
+  for (int side = 0; side < 2; ++side)
+    apart[side].params = FitModel(apart[side].spec, samples, train[side], fo, apart[side].params).params;
+  // Merged: either material's model fitted on the union (the better one on
+  // the held-out photos is kept).
+  BasisMaterial merged[2] = {basis[i], basis[j]};
+  for (int side = 0; side < 2; ++side)
+    merged[side].params = FitModel(merged[side].spec, samples, train_both, fo, merged[side].params).params;
+  // Per texel, as the final weights mix: both materials (apart) or the
+  // merged one, weights solved on the texel's training samples, errors on
+  // its held-out ones; texels without both kinds of samples are left out.
+  double apart_sse = 0, merged_sse[2] = {0, 0};
+  int64_t count = 0;
+  for (int t : texels) {
+    std::vector<int64_t> tr, ho;
+    for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
+      const int im = samples.image[s];
+      (im >= 0 && im < int(held_image.size()) && held_image[im] ? ho : tr).push_back(s);
+    }
+    if (tr.empty() || ho.empty()) continue;
+    apart_sse += MixedTexelError(samples, tr, ho, {&apart[0], &apart[1]});
+    for (int side = 0; side < 2; ++side) merged_sse[side] += MixedTexelError(samples, tr, ho, {&merged[side]});
+    count += int64_t(ho.size());
+  }
+  if (count == 0) return r;
+  const int m = merged_sse[1] < merged_sse[0] ? 1 : 0;
+  r.merged_model = merged[m].spec.Label();
+  r.apart_rmse = std::sqrt(apart_sse / (3.0 * double(count)));
+  r.merged_rmse = std::sqrt(merged_sse[m] / (3.0 * double(count)));
+  r.tested = true;
+  return r;
+}
+
+MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& eo, const NormalRefinement& nr,
+                               const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est) {
+  mo.Check();
+  MergeReport report;
+  if (!mo.enabled || !nr.kept || est->basis.size() < 2) return report;
+  timer->Start("merge materials");
+  const SampleSet reoriented = ReorientSamples(g.samples, nr.tilt);
+  int num_images = 0;
+  for (int32_t im : reoriented.image) num_images = std::max(num_images, int(im) + 1);
+  // The clustering's held-out photos (holdout.h), so that the test is on
+  // photos no fit here saw.
+  const std::vector<char> held = HeldOutImages(num_images, eo.holdout_fraction, eo.seed);
+  FitOptions fo = eo.fit;
+  fo.max_samples = std::min<int64_t>(fo.max_samples, eo.selection_samples);
+  fo.threads = 1;
+  fo.context = "reconstruct: merge test";
+  ReconstructOptions quiet = eo;
+  quiet.progress = false;
+  while (est->basis.size() >= 2) {
+    const int K = int(est->basis.size());
+    std::vector<std::pair<int, int>> pairs;
+    for (int i = 0; i < K; ++i)
+      for (int j = i + 1; j < K; ++j) pairs.emplace_back(i, j);
+    std::vector<MergeTest> tests(pairs.size());
+    // A failed fit (Ceres) leaves its pair untested, not the run failed.
+    ParallelFor(long(pairs.size()), eo.threads, [&](long p) {
+      try {
+        tests[p] = TestMerge(reoriented, est->label, est->basis, pairs[p].first, pairs[p].second, held, fo);
+      } catch (const Error& e) {
+        tests[p] = MergeTest{};
+      }
+    });
+    int best = -1;
+    for (size_t p = 0; p < pairs.size(); ++p) {
+      const MergeTest& t = tests[p];
+      if (!t.tested) continue;
+      const bool pays = MergePays(t.merged_rmse, t.apart_rmse, eo.min_improvement);
+      report.lines.push_back(Msg("materials ", pairs[p].first, " (", est->basis[pairs[p].first].spec.Label(), ") and ",
+                                 pairs[p].second, " (", est->basis[pairs[p].second].spec.Label(),
+                                 "): held-out RMSE apart ", t.apart_rmse, ", merged (", t.merged_model, ") ",
+                                 t.merged_rmse, pays ? ": merge" : ": apart"));
+      std::fprintf(stderr, "  merge test: %s\n", report.lines.back().c_str());
+      if (pays && (best < 0 || t.merged_rmse / t.apart_rmse < tests[best].merged_rmse / tests[best].apart_rmse))
+        best = int(p);
+    }
+    if (best < 0) break;
+    // The merged state refitted whole (model choice, weights) on the samples
+    // in the refined frames; a refit costs about a material round.
+    if (eo.SecondsLeft() <= 0.5 * cluster_seconds) {
+      est->cut_by_deadline.push_back("merge of basis materials");
+      break;
+    }
+    *est = RefitSvbrdf(reoriented, g.atlas, quiet,
+                       WithMaterialsMerged(*est, pairs[best].first, pairs[best].second));
+    ++report.merges;
+    std::fprintf(stderr, "  merged materials %d and %d: %zu basis materials\n", pairs[best].first, pairs[best].second,
+                 est->basis.size());
+  }
+  return report;
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,66 @@
+// The merge stage of `reconstruct` (after the normal refinement): basis
+// materials that the clustering split under the mesh normals but that are
+// one material in the refined normals' frames are merged again (whatever
+// models they were given: the second copper cluster may get a lobe).
+//
+// Why: under a bump map the mesh normals misplace a glossy material's
+// highlights texel by texel, and the split search (which runs before the
+// normals exist) can take the shifted highlights for two materials: the
+// mixed preset at seed 3 split its copper into two conductor clusters
+// (4 basis materials for 3). Once the samples are re-expressed in the
+// refined frames (ReorientSamples), the two halves are fitted by one
+// material about as well, and a split that no longer pays is undone with
+// the split search's own bar (ReconstructOptions::min_improvement).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "cluster/reconstruct.h"
+#include "core/progress.h"
+#include "gather/gather.h"
+#include "normals/refine.h"
+
+namespace svbrdf {
+
+struct MergeOptions {
+  // Whether the stage runs (CLI --no-merge turns it off). It runs only when
+  // refined normals were kept.
+  bool enabled = true;
+  void Check() const {}
+};
+
+struct MergeReport {
+  int merges = 0;
+  std::vector<std::string> lines;  // one per tested pair: held-out RMSE apart and merged
+};
+
+// One pair's test on the samples of its two clusters' texels, as the final
+// weights will mix them: each material and the union (with either
+// material's model, the better one kept) fitted on the training photos'
+// samples; per texel, non-negative weights of both materials (apart) or of
+// the union's material (merged) solved on its training samples and scored
+// on its held-out photos' samples (`held_image`: per image, 1 if held out).
+struct MergeTest {
+  bool tested = false;  // false: a cluster without training or held-out samples
+  double apart_rmse = 0, merged_rmse = 0;
+  std::string merged_model;
+};
+MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
+                    int i, int j, const std::vector<char>& held_image, const FitOptions& fo);
+
+// Merges pairs of `est`'s basis materials, the best-passing pair first
+// (lowest merged / apart RMSE), while some pair passes: its materials apart
+// are not better than merged by `eo.min_improvement` (MergePays) on the
+// samples re-expressed in the refined frames of `nr` (TestMerge). `est` is
+// replaced by the merged state refitted whole (RefitSvbrdf).
+MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& eo, const NormalRefinement& nr,
+                               const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est);
+
+// The estimate with basis material `from` joined to `into` (labels moved,
+// higher indices shifted down; weights dropped: the refit solves them).
+SvbrdfEstimate WithMaterialsMerged(const SvbrdfEstimate& est, int into, int from);
+
+// Whether a merge is kept: the materials apart are not lower by `min_improvement`.
+bool MergePays(double merged_rmse, double apart_rmse, double min_improvement);
+
+}  // namespace svbrdf
