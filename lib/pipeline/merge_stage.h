@@ -48,11 +48,13 @@ struct MergeTest {
 MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
                     int i, int j, const std::vector<char>& held_image, const FitOptions& fo);
 
-// Merges pairs of `est`'s basis materials, the best-passing pair first
-// (lowest merged / apart RMSE), while some pair passes: its materials apart
-// are not better than merged by `eo.min_improvement` (MergePays) on the
-// samples re-expressed in the refined frames of `nr` (TestMerge). `est` is
-// replaced by the merged state refitted whole (RefitSvbrdf).
+// Merges pairs of `est`'s basis materials while some pair passes: its
+// materials apart are not better than merged by `eo.min_improvement`
+// (MergePays) on the samples re-expressed in the refined frames of `nr`,
+// first in TestMerge (every pair; the best-passing one, lowest merged /
+// apart RMSE, goes on), then on the whole estimate refitted apart and merged
+// (RefitSvbrdf: model choice, weights with their priors). `est` is replaced
+// by the merged refit.
 MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& eo, const NormalRefinement& nr,
                                const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est);
 
