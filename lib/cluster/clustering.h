@@ -129,6 +129,9 @@ class Clustering {
   double HeldoutRmse(const WeightModel& m, std::vector<double>* per_texel = nullptr) const;
   // The split search's measure: one pass, trace prior, options().mix_radius.
   double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr) const;
+  // Squared error (and sample-channel count) of the held-out samples of
+  // usable texels under the given weights (texel-major [t][k][c]).
+  double HeldoutSse(const std::vector<float>& weights, int64_t* count) const;
   // Final weights on all samples: a first pass, then the smoothness pass.
   void FinalWeights(const WeightModel& m, std::vector<float>* weights, std::vector<float>* residual) const;
   // Distance of every texel to the nearest texel of each cluster in

@@ -93,6 +93,7 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, c
   const WeightModel weight_model = ChooseWeightModel(cl, &est, log);
   const std::vector<int> training_labels = cl.assign();
   cl.LabelUnseenByAllSamples();
+  ChooseWeightSmoothing(cl, weight_model, &est, log);
   cl.FinalWeights(weight_model, &est.weights, &est.residual);
   cl.assign() = training_labels;  // the quality below is measured as the weights were chosen
 

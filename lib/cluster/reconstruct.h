@@ -179,6 +179,10 @@ struct SvbrdfEstimate {
   std::vector<float> weights;     // texel-major: [t][k][c]
   bool per_channel_weights = false;
   int weight_radius = 0;          // materials of clusters this many texels away mix (step 4)
+  // Region-interior smoothing of the weights chosen by held-out error
+  // (SmoothInteriorWeights, weights.h); 0 = none. Applied to `weights`, and
+  // again by the pipeline to weights re-solved with refined normals.
+  double weight_smoothing = 0;
   std::vector<int> label;         // basis index per texel (largest weight)
   std::vector<float> confidence;  // per texel, [0,1]
   std::vector<float> residual;    // per texel RMS residual of its samples

@@ -17,4 +17,19 @@ std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o);
 // heldout_rmse and the scalar / per-channel errors at the chosen radius).
 WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
 
+// Smoothing inside material regions: a texel whose neighbours all share its
+// label (largest weight; every one with weights) moves towards the mean of
+// its n neighbours that are interior too (a blend-zone texel shares the
+// label at a partial weight): w <- (w + alpha * sum_u w_u) / (1 + alpha * n),
+// in one pass from the unsmoothed weights. Texels at a region border or in a
+// blend zone, and texels without weights, are left as they are. `weights`
+// texel-major [t][k][c] for K materials; alpha >= 0 (0: unchanged).
+void SmoothInteriorWeights(const std::vector<std::vector<int>>& neighbours, int K, double alpha,
+                           std::vector<float>* weights);
+
+// The smoothing strength of model m's weights with the lowest held-out error
+// (weights fitted on the training samples, smoothed, scored on the held-out
+// ones), among 0 and a few strengths; sets est->weight_smoothing.
+double ChooseWeightSmoothing(const Clustering& cl, const WeightModel& m, SvbrdfEstimate* est, const StageLog& log);
+
 }  // namespace svbrdf

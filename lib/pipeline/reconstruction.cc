@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "atlas/surface_neighbours.h"
+#include "cluster/weights.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "evaluate/metrics.h"
@@ -124,6 +126,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   const NormalRefinement nr =
       RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds);
   const MergeReport merge = MergeSameMaterials(g, eo, nr, job.merge, cluster_seconds, &timer, &est);
+  // The output weights (re-solved with the refined normals when those were
+  // kept) get the region-interior smoothing that the held-out samples chose
+  // for the estimate's weights; the normal stage saw them unsmoothed.
+  SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
 
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);
