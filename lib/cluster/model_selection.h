@@ -53,6 +53,15 @@ bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params);
 size_t ChooseModel(const std::vector<ModelCandidate>& candidates, const ModelSpec& incumbent, double margin,
                    double min_z);
 
+// The choice when the candidates are validated twice, on photo folds
+// (`folds`) and on held-out photos (`held`, the same candidates in the same
+// order; empty when there are too few held-out samples): ChooseModel on the
+// folds, then among the candidates that tie with its choice (not clearly
+// worse out of fold, and equal in ChooseModel's preferences: bounds,
+// parameter count, incumbent) the lowest sum of the two mean squared errors.
+size_t ChooseModelOnBoth(const std::vector<ModelCandidate>& folds, const std::vector<ModelCandidate>& held,
+                         const ModelSpec& incumbent, double folds_margin, double min_z);
+
 // Anytime (ReconstructOptions::deadline): clusters are taken largest first
 // (most texels: most of the picture), each only when the time left exceeds
 // the longest selection so far (`first_cluster_seconds`, a prediction, for

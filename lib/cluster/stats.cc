@@ -30,6 +30,12 @@ double TrimmedRmse(std::vector<double> e) {
   return std::sqrt(sum / (3.0 * keep));
 }
 
+double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids) {
+  double signal = 0;
+  for (int64_t i : ids) signal += Sq(samples.y[0][i]) + Sq(samples.y[1][i]) + Sq(samples.y[2][i]);
+  return std::sqrt(signal / std::max<double>(1.0, 3.0 * ids.size()));
+}
+
 double PairedZ(const std::vector<double>& a, const std::vector<double>& b) {
   double sum = 0, sum2 = 0;
   for (size_t t = 0; t < a.size(); ++t) sum += a[t] - b[t], sum2 += (a[t] - b[t]) * (a[t] - b[t]);

@@ -18,6 +18,9 @@ std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double
 // which model describes the cluster.
 double TrimmedRmse(std::vector<double> e);
 
+// RMS of the samples' values per channel (the scale of "parsimony" margins).
+double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids);
+
 // Paired z statistic: how many standard errors the mean of `b` lies below `a`.
 double PairedZ(const std::vector<double>& a, const std::vector<double>& b);
 

@@ -14,6 +14,14 @@ void NormalAlternationOptions::Check() const {
     throw Error(Msg("normal refinement: bootstrap min material gain = ", min_material_gain, ": must be in [0, 1)"));
 }
 
+MaterialRoundDecision DecideMaterialRound(bool normals_kept, double round_rmse, double incumbent_rmse,
+                                          double min_improvement) {
+  MaterialRoundDecision d;
+  d.keep = normals_kept && round_rmse <= incumbent_rmse;
+  d.again = d.keep && round_rmse < (1.0 - min_improvement) * incumbent_rmse;
+  return d;
+}
+
 bool SomeMaterialImproved(const NormalRefinement& nr, double min_gain) {
   for (size_t k = 0; k < nr.heldout_rmse_mesh_by_material.size() && k < nr.heldout_rmse_refined_by_material.size(); ++k) {
     const double mesh = nr.heldout_rmse_mesh_by_material[k], refined = nr.heldout_rmse_refined_by_material[k];
@@ -123,12 +131,19 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     std::fprintf(stderr, "  material round %d: %s\n", round + 1, nr2.Report().c_str());
     rounds->push_back(NormalsJson(nr2, est2));
     rounds->back()["material_round"] = round + 1;
+    // A round that is not worse is kept: its materials were fitted in the
+    // frames of the normals that go with them (the previous ones in the
+    // mesh's or an older round's frames). Another round runs only after a
+    // clear gain (`min_improvement`). Measured on the mixed preset: a round
+    // 0.3 % below (its materials' errors 0.0043 -> 0.0030 on the coated
+    // plastic, 0.0108 -> 0.0105 on the matte) was dropped for missing the 1 %.
     const double incumbent = nr.kept ? nr.heldout_rmse_refined : nr.heldout_rmse_mesh;
-    const bool better = nr2.kept && nr2.heldout_rmse_refined < (1.0 - no.min_improvement) * incumbent;
-    rounds->back()["chosen"] = better;
-    if (!better) break;
+    const MaterialRoundDecision d = DecideMaterialRound(nr2.kept, nr2.heldout_rmse_refined, incumbent, no.min_improvement);
+    rounds->back()["chosen"] = d.keep;
+    if (!d.keep) break;
     est = std::move(est2), nr = std::move(nr2);
     start = nr.tilt;
+    if (!d.again) break;
   }
   if (nr.kept) est.weights = nr.weights;
   return nr;

@@ -3,7 +3,7 @@
 // second clustering on the reoriented samples, and the normals <-> materials
 // alternation of Lensch et al. 2003 (materials refitted on the samples in the
 // refined normals' frames, normals refined again from the refitted ones),
-// every round kept only when the held-out error drops.
+// every round kept only when the held-out error does not rise.
 #pragma once
 #include <nlohmann/json.hpp>
 
@@ -49,6 +49,18 @@ struct NormalAlternationOptions {
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
                                 SvbrdfEstimate* est, nlohmann::json* rounds);
+
+// After a material round (materials refitted in the previous normals'
+// frames, normals refined again) with held-out error `round_rmse` against
+// the chosen state's `incumbent_rmse`: whether the round is kept (its
+// normals were kept and the error is not higher: its materials go with its
+// normals) and whether another round runs (a drop by `min_improvement`).
+struct MaterialRoundDecision {
+  bool keep = false;
+  bool again = false;
+};
+MaterialRoundDecision DecideMaterialRound(bool normals_kept, double round_rmse, double incumbent_rmse,
+                                          double min_improvement);
 
 // Whether some basis material's decision error drops by `min_gain`
 // (relative, on squared errors) with refined normals.
