@@ -284,6 +284,52 @@ TEST(Mesh, ObjWithoutUVsAndNormalOnlyCorners) {
   EXPECT_EQ(m.faces.size(), 1u);
 }
 
+// Other renderers (Mitsuba, Blender) shade with the normals a mesh file
+// gives; a capture rendered with them must be reconstructed and relit with
+// them, not with normals recomputed from the triangles.
+TEST(Mesh, ObjNormalsAreTheFilesOwnWhenOnePerPosition) {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  WriteText(dir / "tilted.obj", tri + "vn 0.5 0 1\nvn 0 0 2\nf 1//1 2//2 3//2\n");
+  Mesh m = LoadMesh(dir / "tilted.obj");
+  ASSERT_EQ(m.normals.size(), 3u);
+  EXPECT_TRUE(m.normals[0].isApprox(Vec3(0.5, 0, 1).normalized(), 1e-12));  // not the face's (0, 0, 1)
+  EXPECT_TRUE(m.normals[1].isApprox(Vec3::UnitZ(), 1e-12));
+  // Split normals (position 1 with two different ones): no per-position normal, so computed.
+  WriteText(dir / "split.obj", tri + "v 1 1 0.5\nvn 1 0 0\nvn 0 1 0\nf 1//1 2//1 3//1\nf 2//2 4//2 3//2\n");
+  m = LoadMesh(dir / "split.obj");
+  Mesh computed = m;
+  computed.ComputeNormals();
+  EXPECT_EQ(m.normals, computed.normals);
+  // A zero normal, or a face without normals, falls back to the computed ones too.
+  WriteText(dir / "zero.obj", tri + "vn 0 0 0\nvn 0 0 1\nf 1//1 2//2 3//2\n");
+  EXPECT_TRUE(LoadMesh(dir / "zero.obj").normals[0].isApprox(Vec3::UnitZ(), 1e-12));
+  WriteText(dir / "mixed.obj", tri + "v 1 1 0\nvn 0.5 0 1\nf 1//1 2//1 3//1\nf 2 4 3\n");
+  EXPECT_TRUE(LoadMesh(dir / "mixed.obj").normals[0].isApprox(Vec3::UnitZ(), 1e-12));
+}
+
+TEST(Mesh, PlyNormalsAreTheFilesOwn) {
+  TempDir dir;
+  WriteText(dir / "n.ply",
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float nx\nproperty float ny\nproperty float nz\nelement face 1\n"
+            "property list uchar int vertex_indices\nend_header\n"
+            "0 0 0 0 0.6 0.8\n1 0 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n");
+  const Mesh m = LoadMesh(dir / "n.ply");
+  ASSERT_EQ(m.normals.size(), 3u);
+  EXPECT_TRUE(m.normals[0].isApprox(Vec3(0, 0.6, 0.8), 1e-6));
+}
+
+TEST(Mesh, SaveObjWithNormalsRoundTripsThem) {
+  TempDir dir;
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  m.faces = {Vec3i(0, 1, 2)};
+  m.normals = {Vec3(0.6, 0, 0.8), Vec3(0, 0, 1), Vec3(0, 1.0 / 3, std::sqrt(8.0) / 3)};
+  SaveObj(m, dir / "m.obj", /*write_normals=*/true);
+  EXPECT_EQ(LoadMesh(dir / "m.obj").normals, m.normals);
+}
+
 TEST(Mesh, ObjErrorsNameFileAndLine) {
   TempDir dir;
   WriteText(dir / "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");

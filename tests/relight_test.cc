@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "raytrace/sphere_mesh.h"
@@ -10,6 +13,8 @@
 
 namespace svbrdf {
 namespace {
+
+namespace fs = std::filesystem;
 
 constexpr double kRadius = 0.5;
 
@@ -113,6 +118,41 @@ TEST(Relight, LambertianSphereMatchesClosedForm) {
   std::printf("Lambertian sphere: %d pixels, max relative error %.2e, mean %.2e\n", n, max_rel, sum_rel / n);
   EXPECT_LT(max_rel, 2e-3);
   EXPECT_LT(sum_rel / n, 3e-4);
+}
+
+// The shading normal is the mesh file's own (OBJ vn): a flat floor whose file
+// normals are tilted 30 deg renders as Lambert with the tilted normal,
+// rd / pi * E * cos(30 deg) under a light straight above, as Mitsuba renders
+// it; normals recomputed from the triangles gave rd / pi * E.
+TEST(Relight, ShadesWithTheNormalsOfTheMeshFile) {
+  const fs::path dir = fs::temp_directory_path() / Msg("svbrdf_relight_vn_", getpid());
+  fs::create_directories(dir);
+  const double s30 = 0.5, c30 = std::sqrt(3.0) / 2;
+  {
+    std::ofstream out(dir / "floor.obj");
+    out << "v -2 0 -2\nv -2 0 2\nv 2 0 2\nv 2 0 -2\nvn " << s30 << " " << c30 << " 0\n"
+        << "f 1//1 2//1 3//1\nf 1//1 3//1 4//1\n";
+  }
+  const Mesh mesh = LoadMesh((dir / "floor.obj").string());
+  fs::remove_all(dir);
+  const double rd = 0.5, irradiance = 2.0;
+  const Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", rd}, {"rd_g", rd}, {"rd_b", rd}});
+  Light sun;
+  sun.id = 1;
+  sun.type = LightType::kDirectional;
+  sun.to_light = Vec3::UnitY();
+  sun.irradiance = Rgb::Constant(irradiance);
+  const Scene s = OneView(Vec3(0.3, 3, 0.2), sun, 64, 48, 60);
+  const RenderedView v = RenderFirstView(mesh, mat, s);
+  const double expected = rd / kPi * irradiance * c30;
+  int n = 0;
+  for (int y = 0; y < v.color.height; ++y)
+    for (int x = 0; x < v.color.width; ++x) {
+      if (!(v.mask.at(x, y, 0) > 0)) continue;
+      EXPECT_NEAR(v.color.at(x, y, 1), expected, 1e-5 * expected) << x << ", " << y;
+      ++n;
+    }
+  EXPECT_GT(n, 1000);
 }
 
 TEST(Relight, HardShadowBehindABlocker) {

@@ -47,6 +47,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--footprint-rays", job->gather.footprint_rays,
                 "sample frames from the mean normal of n x n rays per pixel of each lookup (0 = texel-centre normal;\n"
                 "2 suits photos that integrate the pixel, e.g. real cameras, on scans whose normal turns within a pixel)");
+  c->add_option("--max-footprint-turn", job->gather.max_footprint_turn_deg,
+                "reject samples whose pixel footprint spans more than this turn of the mesh normal (degrees; 0 = off)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")

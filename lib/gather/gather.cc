@@ -23,6 +23,8 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: texel footprint must be in (0, 1000] pixels, got ", texel_footprint));
   if (footprint_rays < 0 || footprint_rays > 8)
     throw Error(Msg("gather: footprint rays must be in [0, 8] per pixel side, got ", footprint_rays));
+  if (!(max_footprint_turn_deg >= 0 && max_footprint_turn_deg <= 180))
+    throw Error(Msg("gather: max footprint turn must be in [0, 180] degrees, got ", max_footprint_turn_deg));
   if (!(max_foreign_share >= 0 && max_foreign_share <= 1))
     throw Error(Msg("gather: max foreign share must be in [0, 1], got ", max_foreign_share));
   if (!(border_texel_max_offset >= 0 && std::isfinite(border_texel_max_offset)))
@@ -37,6 +39,7 @@ std::string GatherStats::Report(bool with_warnings) const {
      << border_texel << " on chart-border texels, " << outside_image << " outside image, " << back_facing << " back-facing/grazing view, " << occluded
      << " occluded, " << outside_mask << " outside mask, " << unlit << " unlit/grazing light, " << shadowed
      << " shadowed, " << saturated << " saturated, " << invalid << " non-finite/negative pixel";
+  if (turning > 0) os << ", " << turning << " normal turning within the pixel";
   if (with_warnings)
     for (const std::string& w : warnings) os << "\n  warning: " << w;
   return os.str();
@@ -44,7 +47,21 @@ std::string GatherStats::Report(bool with_warnings) const {
 
 namespace {
 
-enum Reason : uint8_t { kKept, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid };
+enum Reason : uint8_t { kKept, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid, kTurning };
+
+// How fast the smooth normal turns on texel t's triangle: the largest angle
+// between two of its vertex normals over the length of its longest edge (rad/m).
+double NormalTurnRate(const Mesh& mesh, const Texel& t) {
+  if (mesh.normals.size() != mesh.positions.size()) return 0.0;
+  const Vec3i& f = mesh.faces[t.prim];
+  double angle = 0, edge = 0;
+  for (int k = 0; k < 3; ++k) {
+    const int a = f[k], b = f[(k + 1) % 3];
+    angle = std::max(angle, std::acos(std::clamp(mesh.normals[a].dot(mesh.normals[b]), -1.0, 1.0)));
+    edge = std::max(edge, (mesh.positions[a] - mesh.positions[b]).norm());
+  }
+  return edge > 0 ? angle / edge : 0.0;
+}
 
 struct Record {
   uint8_t reason = kOutsideImage;
@@ -148,6 +165,10 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   // See GatherOptions::border_texel_samples.
   const bool no_border = out.made_uvs && !options.border_texel_samples;
   const int footprint_rays = options.footprint_rays;
+  std::vector<double> turn_rate;
+  if (options.max_footprint_turn_deg > 0)
+    for (const Texel& t : atlas.texels) turn_rate.push_back(NormalTurnRate(out.mesh, t));
+  const double max_turn = options.max_footprint_turn_deg * kPi / 180;
 
   // Kept samples per image (texel, record); one full-size scratch buffer is
   // reused across images, so memory grows with kept samples, not texels x views.
@@ -198,6 +219,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       const double dist = to_eye.norm();
       to_eye /= dist;
       if (n.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
+      if (!turn_rate.empty() && turn_rate[t] * dist / cam.fx() / n.dot(to_eye) > max_turn)
+        return void(r.reason = kTurning);
       if (tracer.Occluded(x + n * eps, to_eye, 0.0, dist - 2 * eps)) return void(r.reason = kOccluded);
       const int x0 = static_cast<int>(std::floor(px.x() - 0.5)), y0 = static_cast<int>(std::floor(px.y() - 0.5));
       if (!e.mask.empty()) {
@@ -271,6 +294,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         case kShadowed: ++st.shadowed; break;
         case kSaturated: ++st.saturated; break;
         case kInvalid: ++st.invalid; break;
+        case kTurning: ++st.turning; break;
       }
     }
     if (kept > 0 && signal == 0)

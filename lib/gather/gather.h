@@ -51,6 +51,12 @@ struct GatherOptions {
   // it gained only 0.1 dB (median sample error vs truth 1.6 % -> 0.9 %).
   int footprint_rays = 0;
   double max_foreign_share = 0.25;
+  // Samples whose pixel footprint spans more than this turn of the mesh
+  // normal (degrees; the texel's triangle's largest angle between vertex
+  // normals per metre, times the footprint dist / (f cos_o)) are rejected:
+  // the photo integrates a spread of normals there, which the texel-centre
+  // frame cannot describe. 0 = off.
+  double max_footprint_turn_deg = 0.0;
   // Generated chart atlases (meshes without UVs): texels outside every UV
   // triangle (the dilation ring around each chart, and texels claimed by
   // triangles smaller than a texel) measure a point clamped onto a chart
@@ -87,6 +93,7 @@ struct GatherStats {
   long border_texel = 0;  // candidates on texels outside every UV triangle (GatherOptions::border_texel_samples)
   long outside_image = 0, back_facing = 0, occluded = 0, outside_mask = 0, unlit = 0, shadowed = 0,
        saturated = 0, invalid = 0;
+  long turning = 0;  // normal turns too much within the pixel footprint (GatherOptions::max_footprint_turn_deg)
   long signal = 0;  // kept samples with a channel above the noise floor
   std::vector<long> kept_per_image;
   std::vector<std::string> warnings;  // e.g. views without signal

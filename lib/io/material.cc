@@ -186,7 +186,8 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
     fs::create_directories(tmp / "weights");
     json j = {{"format", kMaterialFormat}, {"mesh", m.mesh_file}, {"resolution", {m.width, m.height}}};
     fs::create_directories((tmp / m.mesh_file).parent_path());
-    SaveObj(m.mesh, (tmp / m.mesh_file).string());
+    // With its normals: relight must shade with the ones the reconstruction used (LoadMesh).
+    SaveObj(m.mesh, (tmp / m.mesh_file).string(), /*write_normals=*/true);
     j["basis"] = json::array();
     j["weights"] = json::array();
     for (size_t i = 0; i < m.basis.size(); ++i) {

@@ -34,23 +34,29 @@ Mesh LoadObj(const std::string& path) {
   Mesh mesh;
   std::string line, tag;
   int line_no = 0, faces_with_uv = 0, faces_without_uv = 0;
+  // The file's own normals (vn) are the mesh's when every corner names one
+  // and each position always gets the same one; otherwise LoadMesh computes them.
+  std::vector<Vec3> file_normals;
+  std::vector<int> normal_of;
+  bool normals_per_position = true;
   while (std::getline(in, line)) {
     ++line_no;
+    if (normal_of.size() < mesh.positions.size()) normal_of.resize(mesh.positions.size(), -1);
     std::istringstream ls(line);
     if (!(ls >> tag)) continue;
     const std::string where = Msg(path, ":", line_no);
-    if (tag == "v" || tag == "vt") {
+    if (tag == "v" || tag == "vt" || tag == "vn") {
       double a = 0, b = 0, c = 0;
       if (!(ls >> a >> b)) throw Error(Msg(where, ": expected numbers after '", tag, "'"));
       if (tag == "vt") {
         mesh.texcoords.emplace_back(a, b);
       } else {
-        if (!(ls >> c)) throw Error(Msg(where, ": expected 3 numbers after 'v'"));
-        mesh.positions.emplace_back(a, b, c);
+        if (!(ls >> c)) throw Error(Msg(where, ": expected 3 numbers after '", tag, "'"));
+        (tag == "v" ? mesh.positions : file_normals).emplace_back(a, b, c);
       }
     } else if (tag == "f") {
-      // Corners are v, v/vt, v//vn or v/vt/vn; normals are recomputed, so vn is ignored.
-      std::vector<int> pos, uv;
+      // Corners are v, v/vt, v//vn or v/vt/vn.
+      std::vector<int> pos, uv, vn;
       std::string corner;
       while (ls >> corner) {
         const size_t s1 = corner.find('/');
@@ -59,6 +65,18 @@ Mesh LoadObj(const std::string& path) {
         const size_t s2 = corner.find('/', s1 + 1);
         const std::string vt = corner.substr(s1 + 1, s2 == std::string::npos ? std::string::npos : s2 - s1 - 1);
         if (!vt.empty()) uv.push_back(ObjIndex(vt, mesh.texcoords.size(), where));
+        if (s2 != std::string::npos && s2 + 1 < corner.size())
+          vn.push_back(ObjIndex(corner.substr(s2 + 1), file_normals.size(), where));
+      }
+      if (vn.size() == pos.size()) {
+        for (size_t k = 0; k < pos.size(); ++k) {
+          int& n = normal_of[pos[k]];
+          // A position with two different normals (split normals at a hard edge) has no per-position normal.
+          if (n >= 0 && n != vn[k] && file_normals[n] != file_normals[vn[k]]) normals_per_position = false;
+          n = vn[k];
+        }
+      } else {
+        normals_per_position = false;  // a corner without vn
       }
       if (pos.size() < 3) throw Error(Msg(where, ": face with fewer than 3 vertices"));
       if (!uv.empty() && uv.size() != pos.size())
@@ -69,11 +87,17 @@ Mesh LoadObj(const std::string& path) {
         if (!uv.empty()) mesh.face_uvs.emplace_back(uv[0], uv[k], uv[k + 1]);
       }
     }
-    // Other statements (vn, o, g, s, usemtl, mtllib, comments) carry nothing we use.
+    // Other statements (o, g, s, usemtl, mtllib, comments) carry nothing we use.
   }
   if (faces_with_uv > 0 && faces_without_uv > 0)
     throw Error(Msg(path, ": ", faces_without_uv, " faces lack texture coordinates while ", faces_with_uv,
                     " have them"));
+  normal_of.resize(mesh.positions.size(), -1);
+  if (normals_per_position && !file_normals.empty()) {
+    mesh.normals.assign(mesh.positions.size(), Vec3::Zero());  // unused positions: zero, set by LoadMesh
+    for (size_t v = 0; v < mesh.positions.size(); ++v)
+      if (normal_of[v] >= 0) mesh.normals[v] = file_normals[normal_of[v]];
+  }
   return mesh;
 }
 
@@ -150,7 +174,21 @@ Mesh LoadMesh(const std::string& path) {
   else if (ext == ".ply") mesh = LoadPly(path);
   else throw Error(Msg(path, ": unknown mesh format '", ext, "' (expected .obj or .ply)"));
   mesh.Validate(path);
-  mesh.ComputeNormals();
+  // The file's normals when it gives one per position (OBJ vn, PLY nx ny nz):
+  // other renderers shade with them (Mitsuba, Blender), and a capture
+  // rendered with them must be relit with them. Otherwise (none, split
+  // normals, a zero or non-finite one) the area-weighted normals.
+  bool usable = mesh.normals.size() == mesh.positions.size();
+  std::vector<bool> used(mesh.positions.size(), false);
+  for (const Vec3i& f : mesh.faces)
+    for (int k = 0; k < 3; ++k) used[f[k]] = true;
+  for (size_t v = 0; usable && v < mesh.normals.size(); ++v)
+    usable = !used[v] || (mesh.normals[v].allFinite() && mesh.normals[v].norm() > 1e-12);
+  if (usable) {
+    for (Vec3& n : mesh.normals) n = n.norm() > 1e-12 ? Vec3(n.normalized()) : Vec3::UnitZ();
+  } else {
+    mesh.ComputeNormals();
+  }
   return mesh;
 }
 

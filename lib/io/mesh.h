@@ -14,7 +14,9 @@ struct Mesh {
   std::vector<Vec3i> faces;       // indices into positions
   std::vector<Vec2> texcoords;    // (u, v), v up as in OBJ
   std::vector<Vec3i> face_uvs;    // indices into texcoords; empty when the mesh has no UVs
-  std::vector<Vec3> normals;      // per position, area-weighted smooth normals (ComputeNormals)
+  // Per position, unit: the file's own normals when it gives one per position
+  // (OBJ vn, PLY nx ny nz), else area-weighted smooth normals (ComputeNormals).
+  std::vector<Vec3> normals;
 
   bool HasUVs() const { return !face_uvs.empty(); }
   void ComputeNormals();
@@ -26,7 +28,8 @@ struct Mesh {
   void Validate(const std::string& context) const;
 };
 
-Mesh LoadMesh(const std::string& path);  // by extension .obj / .ply; computes normals
+// By extension .obj / .ply; normals as the file gives them, else computed (see `normals`).
+Mesh LoadMesh(const std::string& path);
 // Writes OBJ (with vt when present, and with the per-position normals as vn
 // when `write_normals`, so other renderers shade exactly as relight does);
 // atomic (temporary name, then rename).

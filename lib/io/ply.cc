@@ -156,8 +156,10 @@ Mesh LoadPly(const std::string& path) {
     const int ix = FindProperty(e, {"x"}), iy = FindProperty(e, {"y"}), iz = FindProperty(e, {"z"});
     const int iu = FindProperty(e, {"u", "s", "texture_u", "texture_s"});
     const int iv = FindProperty(e, {"v", "t", "texture_v", "texture_t"});
+    const int inx = FindProperty(e, {"nx"}), iny = FindProperty(e, {"ny"}), inz = FindProperty(e, {"nz"});
     const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
     if (is_vertex && (ix < 0 || iy < 0 || iz < 0)) throw Error(Msg(path, ": PLY vertex lacks x, y or z"));
+    const bool normals = is_vertex && inx >= 0 && iny >= 0 && inz >= 0;  // used by LoadMesh when valid
     if (is_vertex) uvs = iu >= 0 && iv >= 0;
     // Every item takes at least one byte: a larger count is a corrupt header
     // (and must not drive a loop of billions of empty items).
@@ -190,6 +192,7 @@ Mesh LoadPly(const std::string& path) {
       if (is_vertex) {
         mesh.positions.emplace_back(values[ix], values[iy], values[iz]);
         if (uvs) mesh.texcoords.emplace_back(values[iu], values[iv]);
+        if (normals) mesh.normals.emplace_back(values[inx], values[iny], values[inz]);
       }
       if (is_face) {
         if (polygon.size() < 3) throw Error(Msg(path, ": face ", item, " has fewer than 3 vertex indices"));

@@ -82,8 +82,9 @@ double MedianRelativeError(const GatherResult& g, const Material& gt) {
 // camera integrates them): the samples' frames from the footprint's mean
 // normal must describe the measured values better than the texel-centre
 // normal.
-TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_bumps_" + std::to_string(getpid()))).string();
+// Writes the bumpy sphere below to dir/bumpy.obj and an 8-view tiny capture
+// of it, rendered with 4x4 samples per pixel, to dir/cap.
+SynthOptions BumpySphereCapture(const std::string& dir) {
   fs::create_directories(dir);
   {
     // Lat-long sphere of radius 0.5 with UVs; radius modulated by bumps of
@@ -114,6 +115,12 @@ TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
   o.num_images = 8;
   o.num_heldout = 0;
   Synthesize(o, dir + "/cap");
+  return o;
+}
+
+TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_bumps_" + std::to_string(getpid()))).string();
+  const SynthOptions o = BumpySphereCapture(dir);
   const Scene scene = LoadScene(dir + "/cap/scene.json");
   const Material gt = LoadMaterial(dir + "/cap/gt");
   GatherOptions go;
@@ -125,6 +132,37 @@ TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
   const double footprint = MedianRelativeError(Gather(scene, go), gt);
   std::printf("median relative sample error: texel-centre normal %.4f, footprint normal %.4f\n", centre, footprint);
   EXPECT_LT(footprint, 0.7 * centre);
+  fs::remove_all(dir);
+}
+
+// Samples whose pixel footprint spans a large turn of the mesh normal are
+// the ones the texel-centre frame describes worst; rejecting them
+// (GatherOptions::max_footprint_turn_deg) leaves samples that agree better
+// with the true BRDF, and rejects none on a smooth sphere.
+TEST(Gather, SamplesWhereTheNormalTurnsWithinThePixelAreRejected) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_turn_" + std::to_string(getpid()))).string();
+  const SynthOptions o = BumpySphereCapture(dir);
+  const Scene scene = LoadScene(dir + "/cap/scene.json");
+  const Material gt = LoadMaterial(dir + "/cap/gt");
+  GatherOptions go;
+  go.texture_size = o.material.texture_size;
+  go.progress = false;
+  const GatherResult all = Gather(scene, go);
+  go.max_footprint_turn_deg = 12;
+  const GatherResult kept = Gather(scene, go);
+  const double e_all = MedianRelativeError(all, gt), e_kept = MedianRelativeError(kept, gt);
+  std::printf("median relative sample error: all %.4f (%ld samples), normal turn <= 12 deg per footprint %.4f (%ld)\n",
+              e_all, long(all.samples.size()), e_kept, long(kept.samples.size()));
+  EXPECT_EQ(all.stats.turning, 0);
+  EXPECT_GT(kept.stats.turning, 0);
+  EXPECT_GT(kept.samples.size(), 100);
+  EXPECT_LT(e_kept, 0.8 * e_all);
+  // A smooth sphere (the tiny preset's) loses no sample.
+  SynthOptions smooth = SynthPreset("tiny");
+  smooth.num_images = 4;
+  smooth.num_heldout = 0;
+  Synthesize(smooth, dir + "/smooth");
+  EXPECT_EQ(Gather(LoadScene(dir + "/smooth/scene.json"), go).stats.turning, 0);
   fs::remove_all(dir);
 }
 
