@@ -13,7 +13,12 @@
 //     mixing weights solved at every trial tilt (joint_cost.h; `joint_weights`); the
 //     samples i are the texel's own (v = 1) and its 8 neighbours' expressed in
 //     its frame with their own weights (v = neighbour_weight): a texel sees a
-//     handful of photos, too few alone for a normal and its weights.
+//     handful of photos, too few alone for a normal and its weights. That is
+//     the first pass only (with `smooth_tilt` > 0, the default): later passes
+//     take the texel's own samples and add, per neighbour u fitted too,
+//     (sigma / tau_s)^2 |(a, b) - (a_u, b_u)|^2 (u's current tilt in the
+//     texel's frame, tau_s = `smooth_tilt`), a smoothness prior instead of a
+//     3 x 3 blur of the normal field.
 //     rho: Cauchy loss at `robust_sigmas` sigma (samples that the model cannot
 //     explain: misregistered pixels, interreflections). The prior is the MAP
 //     term of a Gaussian prior on tan(tilt) with std tau = `prior_tilt`,
@@ -69,6 +74,7 @@ struct NormalOptions {
   // decide, where they are strong (a highlight) the data do. 0 = pool in
   // every pass.
   double smooth_tilt = 0.05;
+  int min_own_samples = 4;  // fewer own samples: the texel pools its neighbours' in every pass
   double prior_tilt = 0.35;     // tau: prior std of tan(tilt) per tangent axis (0.35 ~ 19 degrees), > 0
   double noise = -1.0;          // sigma of y per channel; < 0: estimated from the residuals
   double robust_sigmas = 3.0;   // Cauchy loss scale in sigmas; 0 = plain least squares

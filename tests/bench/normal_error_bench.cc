@@ -134,6 +134,7 @@ int main(int argc, char** argv) {
     else if (k == "robust_sigmas") no.robust_sigmas = v;
     else if (k == "min_samples") no.min_samples = int(v);
     else if (k == "smooth_tilt") no.smooth_tilt = v;
+    else if (k == "min_own_samples") no.min_own_samples = int(v);
     else if (k == "max_iterations") no.max_iterations = int(v);
     else if (k == "start") start_truth = true;
     else {
