@@ -4,7 +4,12 @@
 #include <cstdio>
 #include <utility>
 
+#include "cluster/holdout.h"
 #include "core/error.h"
+#include "normals/normal_map.h"
+#include "raytrace/raytracer.h"
+#include "relight/relight.h"
+#include "relight/shader.h"
 
 namespace svbrdf {
 
@@ -20,6 +25,55 @@ bool SomeMaterialImproved(const NormalRefinement& nr, double min_gain) {
     if (mesh > 0 && refined * refined < (1.0 - min_gain) * mesh * mesh) return true;
   }
   return false;
+}
+
+namespace {
+
+// Squared error of `material` relit against the photos `images` of `scene`, over their masks.
+double PhotoError(const Material& material, const Scene& scene, const std::vector<size_t>& images, int threads) {
+  RayTracer tracer(material.mesh);
+  MaterialShader shader(material);
+  RelightOptions ro;
+  ro.progress = false;
+  ro.threads = threads;
+  double sse = 0;
+  for (size_t index : images) {
+    const ImageEntry& e = scene.images[index];
+    const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
+    Image mask;
+    if (!e.mask.empty()) mask = ReadImage(scene.Resolve(e.mask));
+    const RenderedView v = RenderView(tracer, shader, scene, index, ro);
+    const double inv = e.exposure > 0 ? 1.0 / e.exposure : 1.0;
+    for (int y = 0; y < photo.height; ++y)
+      for (int x = 0; x < photo.width; ++x) {
+        if (mask.width && mask.at(x, y, 0) < 0.5f) continue;
+        for (int c = 0; c < 3; ++c) {
+          const double d = (double(photo.at(x, y, c)) - v.color.at(x, y, c)) * inv;
+          if (std::isfinite(d)) sse += d * d;
+        }
+      }
+  }
+  return sse;
+}
+
+}  // namespace
+
+PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
+                                  const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
+                                  int max_photos) {
+  PhotoCheck out;
+  const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
+  std::vector<size_t> images;
+  for (size_t i = 0; i < held.size() && int(images.size()) < max_photos; ++i)
+    if (held[i]) images.push_back(i);
+  out.photos = int(images.size());
+  if (images.empty()) return out;
+  Material without = ToMaterial(before, g.atlas, g.mesh);
+  Material with = ToMaterial(after, g.atlas, g.mesh);
+  with.normal_map = NormalMapImage(g.atlas, nr.normal);
+  out.error_without_map = PhotoError(without, scene, images, eo.threads);
+  out.error_with_map = PhotoError(with, scene, images, eo.threads);
+  return out;
 }
 
 namespace {
