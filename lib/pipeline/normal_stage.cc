@@ -76,6 +76,10 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
   return out;
 }
 
+bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement) {
+  return pc.photos == 0 || pc.error_with_map < (1.0 - min_improvement) * pc.error_without_map;
+}
+
 namespace {
 
 // The normal decision's time as a share of the clustering's (see its use).
@@ -100,7 +104,7 @@ nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est
 
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
-                                SvbrdfEstimate* est_io, nlohmann::json* rounds) {
+                                SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene) {
   ao.Check();
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
@@ -134,6 +138,18 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     const bool better = no.mode == "force" || (nr2.kept && nr2.heldout_rmse_refined < nr.heldout_rmse_refined);
     rounds->back()["chosen"] = better;
     if (better) est = std::move(est2), nr = std::move(nr2);
+  }
+  if (scene && nr.kept && no.mode == "on") {
+    timer->Start("normal map photo check");
+    SvbrdfEstimate with = est;
+    with.weights = nr.weights;
+    const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr);
+    const bool pass = PhotoCheckPasses(pc, no.min_improvement);
+    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
+                 pc.error_without_map, pc.error_with_map, pass ? "kept" : "not kept (mesh normals)");
+    rounds->back()["photo_check"] = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
+                                     {"error_with_map", pc.error_with_map}, {"kept", pass}};
+    if (!pass) return NormalRefinement();
   }
   // Normals <-> materials: materials fitted under the mesh normals are
   // biased where the surface is bumped (a metal's shifted highlights read

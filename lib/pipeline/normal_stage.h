@@ -47,9 +47,12 @@ struct NormalAlternationOptions {
 // Runs the stage on `est` (replaced by the refitted estimate when a round is
 // kept; its weights by the refinement's when normals are kept). Appends one
 // entry per refinement to `rounds` (summary.json "normals.rounds").
+// With `scene`, a first refinement that is kept must pass the photo check
+// (CheckNormalMapOnPhotos) before the material rounds start, else the stage
+// ends with the mesh normals (saves the rounds' time where the map loses).
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
-                                SvbrdfEstimate* est, nlohmann::json* rounds);
+                                SvbrdfEstimate* est, nlohmann::json* rounds, const Scene* scene = nullptr);
 
 // The photo check of a kept refinement: the clustering's estimate `before`
 // (mesh normals) and the stage's `after` with its normal map, each rendered
@@ -68,6 +71,8 @@ struct PhotoCheck {
 PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
                                   int max_photos = 4);
+// The map is kept when it lowers that error by `min_improvement` (relative), or there are no photos.
+bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement);
 
 // Whether some basis material's decision error drops by `min_gain`
 // (relative, on squared errors) with refined normals.

@@ -122,13 +122,15 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.deadline = eo.deadline;
   nlohmann::json normals_rounds = nlohmann::json::array();
   const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
-  NormalRefinement nr = RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds);
+  NormalRefinement nr =
+      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds, &scene);
   nlohmann::json photo_check;
   if (nr.kept && no.mode == "on") {
-    // The map as relight uses it, on held-out photos (normal_stage.h).
+    // The map as relight uses it, on held-out photos (normal_stage.h), after
+    // the material rounds too (the stage checked the first refinement).
     timer.Start("normal map photo check");
     const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr);
-    const bool keep = pc.photos == 0 || pc.error_with_map < (1.0 - no.min_improvement) * pc.error_without_map;
+    const bool keep = PhotoCheckPasses(pc, no.min_improvement);
     std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
                  pc.error_without_map, pc.error_with_map, keep ? "kept" : "not kept (mesh normals, clustering's estimate)");
     photo_check = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
