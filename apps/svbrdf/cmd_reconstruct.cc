@@ -54,6 +54,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")
       ->check(CLI::IsMember({"on", "off", "force"}));
   c->add_option("--normal-prior", job->normals.prior_tilt, "prior std of tan(tilt) from the mesh normal (> 0)");
+  c->add_option("--normal-smooth", job->normals.smooth_tilt,
+                "prior std of tan(tilt) between adjacent texels' normals after the first pass (0 = pool the\n"
+                "neighbours' samples in every pass)");
+  c->add_option("--normal-passes", job->normals.iterations, "normal + weights passes of the refinement (>= 1)");
   c->add_flag("--recluster", job->normals.recluster,
               "when refined normals are kept: cluster again on the reoriented samples (about doubles the time)");
   c->add_option("--material-rounds", job->normals.material_rounds,

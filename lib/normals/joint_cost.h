@@ -146,6 +146,7 @@ struct NormalJointCost {
   const std::vector<double>* weight;  // per sample
   double cauchy = 0;
   double prior_scale = 0;
+  double prior_mean[2] = {0, 0};  // the prior's centre (NormalBatchCost)
 
   template <class T>
   bool operator()(const T* ab, T* residual) const {
@@ -193,8 +194,8 @@ struct NormalJointCost {
         ApplyCauchy(cauchy, r);
       }
     }
-    residual[3 * n] = prior_scale * ab[0];
-    residual[3 * n + 1] = prior_scale * ab[1];
+    residual[3 * n] = prior_scale * (ab[0] - prior_mean[0]);
+    residual[3 * n + 1] = prior_scale * (ab[1] - prior_mean[1]);
     return true;
   }
 };

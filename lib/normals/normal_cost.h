@@ -144,6 +144,10 @@ struct NormalBatchCost {
   const std::vector<double>* weight;
   double cauchy = 0;       // c; 0 = plain least squares
   double prior_scale = 0;  // TiltPrior scale
+  // The prior's centre: (0, 0) is the mesh normal; a prior towards the mesh
+  // normal and one towards the neighbours' tilts sum to one Gaussian
+  // centred between them (refine.cc, smooth_tilt).
+  double prior_mean[2] = {0, 0};
 
   template <class T>
   bool operator()(const T* ab, T* residual) const {
@@ -159,8 +163,8 @@ struct NormalBatchCost {
       NormalSampleCost{&(*samples)[i], (*basis)[i], sqrt((*weight)[i])}(ab, r);
       ApplyCauchy(cauchy, r);
     }
-    residual[3 * n] = prior_scale * ab[0];
-    residual[3 * n + 1] = prior_scale * ab[1];
+    residual[3 * n] = prior_scale * (ab[0] - prior_mean[0]);
+    residual[3 * n + 1] = prior_scale * (ab[1] - prior_mean[1]);
     return true;
   }
 };

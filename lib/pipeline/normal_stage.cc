@@ -4,7 +4,12 @@
 #include <cstdio>
 #include <utility>
 
+#include "cluster/holdout.h"
 #include "core/error.h"
+#include "normals/normal_map.h"
+#include "raytrace/raytracer.h"
+#include "relight/relight.h"
+#include "relight/shader.h"
 
 namespace svbrdf {
 
@@ -32,6 +37,59 @@ bool SomeMaterialImproved(const NormalRefinement& nr, double min_gain) {
 
 namespace {
 
+// Squared error of `material` relit against the photos `images` of `scene`, over their masks.
+double PhotoError(const Material& material, const Scene& scene, const std::vector<size_t>& images, int threads) {
+  RayTracer tracer(material.mesh);
+  MaterialShader shader(material);
+  RelightOptions ro;
+  ro.progress = false;
+  ro.threads = threads;
+  double sse = 0;
+  for (size_t index : images) {
+    const ImageEntry& e = scene.images[index];
+    const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
+    Image mask;
+    if (!e.mask.empty()) mask = ReadImage(scene.Resolve(e.mask));
+    const RenderedView v = RenderView(tracer, shader, scene, index, ro);
+    const double inv = e.exposure > 0 ? 1.0 / e.exposure : 1.0;
+    for (int y = 0; y < photo.height; ++y)
+      for (int x = 0; x < photo.width; ++x) {
+        if (mask.width && mask.at(x, y, 0) < 0.5f) continue;
+        for (int c = 0; c < 3; ++c) {
+          const double d = (double(photo.at(x, y, c)) - v.color.at(x, y, c)) * inv;
+          if (std::isfinite(d)) sse += d * d;
+        }
+      }
+  }
+  return sse;
+}
+
+}  // namespace
+
+PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
+                                  const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
+                                  int max_photos) {
+  PhotoCheck out;
+  const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
+  std::vector<size_t> images;
+  for (size_t i = 0; i < held.size() && int(images.size()) < max_photos; ++i)
+    if (held[i]) images.push_back(i);
+  out.photos = int(images.size());
+  if (images.empty()) return out;
+  Material without = ToMaterial(before, g.atlas, g.mesh);
+  Material with = ToMaterial(after, g.atlas, g.mesh);
+  with.normal_map = NormalMapImage(g.atlas, nr.normal);
+  out.error_without_map = PhotoError(without, scene, images, eo.threads);
+  out.error_with_map = PhotoError(with, scene, images, eo.threads);
+  return out;
+}
+
+bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement) {
+  return pc.photos == 0 || pc.error_with_map < (1.0 - min_improvement) * pc.error_without_map;
+}
+
+namespace {
+
 // The normal decision's time as a share of the clustering's (see its use).
 constexpr double kNormalDecisionShare = 0.35;
 
@@ -54,7 +112,7 @@ nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est
 
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
-                                SvbrdfEstimate* est_io, nlohmann::json* rounds) {
+                                SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene) {
   ao.Check();
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
@@ -88,6 +146,18 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     const bool better = no.mode == "force" || (nr2.kept && nr2.heldout_rmse_refined < nr.heldout_rmse_refined);
     rounds->back()["chosen"] = better;
     if (better) est = std::move(est2), nr = std::move(nr2);
+  }
+  if (scene && nr.kept && no.mode == "on") {
+    timer->Start("normal map photo check");
+    SvbrdfEstimate with = est;
+    with.weights = nr.weights;
+    const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr);
+    const bool pass = PhotoCheckPasses(pc, no.min_improvement);
+    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
+                 pc.error_without_map, pc.error_with_map, pass ? "kept" : "not kept (mesh normals)");
+    rounds->back()["photo_check"] = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
+                                     {"error_with_map", pc.error_with_map}, {"kept", pass}};
+    if (!pass) return NormalRefinement();
   }
   // Normals <-> materials: materials fitted under the mesh normals are
   // biased where the surface is bumped (a metal's shifted highlights read

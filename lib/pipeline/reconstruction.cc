@@ -123,8 +123,25 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.progress = no.progress && eo.progress;
   no.deadline = eo.deadline;
   nlohmann::json normals_rounds = nlohmann::json::array();
-  const NormalRefinement nr =
-      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds);
+  const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
+  NormalRefinement nr =
+      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds, &scene);
+  nlohmann::json photo_check;
+  if (nr.kept && no.mode == "on") {
+    // The map as relight uses it, on held-out photos (normal_stage.h), after
+    // the material rounds too (the stage checked the first refinement).
+    timer.Start("normal map photo check");
+    const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr);
+    const bool keep = PhotoCheckPasses(pc, no.min_improvement);
+    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
+                 pc.error_without_map, pc.error_with_map, keep ? "kept" : "not kept (mesh normals, clustering's estimate)");
+    photo_check = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
+                   {"error_with_map", pc.error_with_map}, {"kept", keep}};
+    if (!keep) {
+      est = est_mesh_normals;
+      nr = NormalRefinement();
+    }
+  }
   const MergeReport merge = MergeSameMaterials(g, eo, nr, job.merge, cluster_seconds, &timer, &est);
   // The output weights (re-solved with the refined normals when those were
   // kept) get the region-interior smoothing that the held-out samples chose
@@ -170,6 +187,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     summary["cluster_quality"].push_back({{"cluster", q.cluster}, {"texels", q.texels}, {"heldout_rmse", q.heldout_rmse},
                                           {"signal_rms", q.signal_rms}, {"poorly_explained", q.poorly_explained}});
   if (no.Enabled()) summary["normals"] = {{"mode", no.mode}, {"kept", nr.kept}, {"rounds", normals_rounds}};
+  if (!photo_check.is_null()) summary["normals"]["photo_check"] = photo_check;
   for (const auto& m : est.model_choices)
     summary["model_selection"].push_back({{"cluster", m.cluster}, {"model", m.label}, {"heldout_rmse", m.heldout_rmse},
                                           {"params", m.num_params}, {"chosen", m.chosen}, {"finalist", m.finalist}});

@@ -61,7 +61,8 @@ TEST(BumpMapped, SmallCaptureFindsTheThreeMaterials) {
 }
 
 // The full-size capture at spp 1, measured: 3 materials, the first
-// refinement kept, both material rounds kept, 32.71 dB held-out (19 s CPU;
+// refinement kept, both material rounds kept, 33.75 dB held-out (32.71 dB,
+// 19 s CPU, before the smoothness prior;
 // 31.62 dB with the first refinement rejected and the bootstrap). Before: 2 materials, 23.9 dB (spp 2); with 3 materials but no
 // bootstrap the normals were rejected, 27.3 dB.
 TEST(BumpMapped, DefaultMaterialsRightCountAndNormalsPayOff) {
@@ -86,7 +87,10 @@ TEST(BumpMapped, DefaultMaterialsRightCountAndNormalsPayOff) {
   // rounds follow it: 32.71 dB.)
   EXPECT_GE(chosen_rounds, 1);
   EXPECT_TRUE(r.summary["normals"]["kept"].get<bool>());
-  EXPECT_GT(r.psnr, 30.0);
+  // 32.71 dB with the neighbours' samples pooled in every pass of the tilt
+  // fit; 33.75 dB with own samples and a prior towards the neighbours'
+  // tilts after the first pass (NormalOptions::smooth_tilt).
+  EXPECT_GT(r.psnr, 33.0);
   fs::remove_all(dir);
 }
 
