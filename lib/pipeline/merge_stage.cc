@@ -86,11 +86,11 @@ double MixedTexelError(const SampleSet& samples, const std::vector<int64_t>& tra
 MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
                     int i, int j, const std::vector<char>& held_image, const FitOptions& fo) {
   std::vector<int64_t> train[2], train_both;
-  std::vector<int> texels;
+  std::vector<std::pair<int, int>> texels;  // (texel, side)
   for (int t = 0; t < samples.num_texels; ++t) {
     const int side = label[t] == i ? 0 : label[t] == j ? 1 : -1;
     if (side < 0) continue;
-    texels.push_back(t);
+    texels.emplace_back(t, side);
     for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
       const int im = samples.image[s];
       if (im >= 0 && im < int(held_image.size()) && held_image[im]) continue;
@@ -110,19 +110,22 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
   BasisMaterial merged[2] = {basis[i], basis[j]};
   for (int side = 0; side < 2; ++side)
     merged[side].params = FitModel(merged[side].spec, samples, train_both, fo, merged[side].params).params;
-  // Per texel, as the final weights mix: both materials (apart) or the
-  // merged one, weights solved on the texel's training samples, errors on
-  // its held-out ones; texels without both kinds of samples are left out.
+  // Per texel, one scalar weight (as many unknowns either way): of its own
+  // cluster's material (apart) or of the merged one, solved on the texel's
+  // training samples, errors on its held-out ones; texels without both kinds
+  // of samples are left out. Two free weights per texel apart overfit a
+  // texel's few samples and made merging look better than it is (the small
+  // bumped capture's glossy paint and red plastic).
   double apart_sse = 0, merged_sse[2] = {0, 0};
   int64_t count = 0;
-  for (int t : texels) {
+  for (const auto& [t, side] : texels) {
     std::vector<int64_t> tr, ho;
     for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
       const int im = samples.image[s];
       (im >= 0 && im < int(held_image.size()) && held_image[im] ? ho : tr).push_back(s);
     }
     if (tr.empty() || ho.empty()) continue;
-    apart_sse += MixedTexelError(samples, tr, ho, {&apart[0], &apart[1]});
+    apart_sse += MixedTexelError(samples, tr, ho, {&apart[side]});
     for (int side = 0; side < 2; ++side) merged_sse[side] += MixedTexelError(samples, tr, ho, {&merged[side]});
     count += int64_t(ho.size());
   }

@@ -23,9 +23,14 @@
 namespace svbrdf {
 
 struct MergeOptions {
-  // Whether the stage runs (CLI --no-merge turns it off). It runs only when
-  // refined normals were kept.
-  bool enabled = true;
+  // Whether the stage runs (CLI --merge; off by default). It runs only when
+  // refined normals were kept. Off because the evidence is mixed: on the
+  // mixed preset at seed 3 it merges the copper's two clusters (4 -> 3
+  // basis materials, 39.13 -> 39.05 dB held-out), but on the 160x120
+  // bumped test capture (BumpMapped.SmallCaptureFindsTheThreeMaterials) it
+  // merges two Cook-Torrance clusters (3 -> 2, 32.61 -> 34.27 dB): the
+  // held-out photos there do not tell the third material apart.
+  bool enabled = false;
   void Check() const {}
 };
 
@@ -35,11 +40,11 @@ struct MergeReport {
 };
 
 // One pair's test on the samples of its two clusters' texels, as the final
-// weights will mix them: each material and the union (with either
-// material's model, the better one kept) fitted on the training photos'
-// samples; per texel, non-negative weights of both materials (apart) or of
-// the union's material (merged) solved on its training samples and scored
-// on its held-out photos' samples (`held_image`: per image, 1 if held out).
+// weights scale them: each material and the union (with either material's
+// model, the better one kept) fitted on the training photos' samples; per
+// texel, a non-negative weight of its own cluster's material (apart) or of
+// the union's (merged) solved on its training samples and scored on its
+// held-out photos' samples (`held_image`: per image, 1 if held out).
 struct MergeTest {
   bool tested = false;  // false: a cluster without training or held-out samples
   double apart_rmse = 0, merged_rmse = 0;
