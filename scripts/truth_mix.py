@@ -24,34 +24,18 @@ Example:
   truth_mix.py mix --basis rec --weights CAP/gt --perm 2,1,0 --normals CAP/gt --res 128
   svbrdf relight mix CAP/heldout/scene.json --out relit && svbrdf evaluate relit CAP/heldout/scene.json
 """
-import argparse, json, os, shutil
+import argparse, json, os, shutil, sys
 import mitsuba as mi
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from texel_resample import resize  # noqa: E402
 
 mi.set_variant('scalar_rgb')
 
 
 def load(path):
     return np.array(mi.Bitmap(path)).astype(np.float64)
-
-
-def resize(img, R):
-    """Bilinear resample to R x R at texel centres, clamped at the border."""
-    if img.ndim == 2:
-        img = img[..., None]
-    H, W = img.shape[:2]
-    if H == R and W == R:
-        return img
-    ys = (np.arange(R) + 0.5) * H / R - 0.5
-    xs = (np.arange(R) + 0.5) * W / R - 0.5
-    y0 = np.clip(np.floor(ys).astype(int), 0, H - 1)
-    x0 = np.clip(np.floor(xs).astype(int), 0, W - 1)
-    y1, x1 = np.clip(y0 + 1, 0, H - 1), np.clip(x0 + 1, 0, W - 1)
-    fy = np.clip(ys - y0, 0, 1)[:, None, None]
-    fx = np.clip(xs - x0, 0, 1)[None, :, None]
-    top = img[y0][:, x0] * (1 - fx) + img[y0][:, x1] * fx
-    bottom = img[y1][:, x0] * (1 - fx) + img[y1][:, x1] * fx
-    return top * (1 - fy) + bottom * fy
 
 
 def main():

@@ -15,9 +15,12 @@ Usage (/usr/bin/python3: numpy and OpenImageIO):
     --perm  reconstruction's material index for each true material, in the
             truth's order (default: matched by overlap)
 """
-import argparse, json
+import argparse, json, os, sys
 import numpy as np
 import OpenImageIO as oiio
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from texel_resample import resize  # noqa: E402
 
 
 def load(path):
@@ -27,23 +30,6 @@ def load(path):
     a = np.array(inp.read_image(format='float'), dtype=np.float64)
     inp.close()
     return a if a.ndim == 3 else a[..., None]
-
-
-def resize(img, R):
-    """Bilinear resample to R x R at texel centres, clamped at the border (as truth_mix.py)."""
-    H, W = img.shape[:2]
-    if H == R and W == R:
-        return img
-    ys = (np.arange(R) + 0.5) * H / R - 0.5
-    xs = (np.arange(R) + 0.5) * W / R - 0.5
-    y0 = np.clip(np.floor(ys).astype(int), 0, H - 1)
-    x0 = np.clip(np.floor(xs).astype(int), 0, W - 1)
-    y1, x1 = np.clip(y0 + 1, 0, H - 1), np.clip(x0 + 1, 0, W - 1)
-    fy = np.clip(ys - y0, 0, 1)[:, None, None]
-    fx = np.clip(xs - x0, 0, 1)[None, :, None]
-    top = img[y0][:, x0] * (1 - fx) + img[y0][:, x1] * fx
-    bottom = img[y1][:, x0] * (1 - fx) + img[y1][:, x1] * fx
-    return top * (1 - fy) + bottom * fy
 
 
 def main():
