@@ -268,6 +268,10 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     if (!mkdtemp(ws.data())) throw Error("capture: cannot create a temporary COLMAP workspace");
     const std::vector<std::string> photo_paths(detect_paths.begin() + first_photo, detect_paths.end());
     ColmapSfmOptions co_sfm;
+    // COLMAP's threads too (its -1 is all cores, ours 0): with one thread
+    // its matching and mapping do not depend on thread scheduling (its
+    // RANSAC still seeds worker threads from the clock).
+    co_sfm.threads = job.threads > 0 ? job.threads : -1;
     if (desc.contains("colmap_executable")) co_sfm.colmap = Field<std::string>(desc, "colmap_executable", ctx);
     const ColmapModel model = RunColmapSfm(photo_paths, camera, ws, co_sfm);  // throws naming the log (kept)
     std::map<std::string, Rigid3> known;

@@ -35,7 +35,7 @@ struct CaptureJob {
   std::string description;  // default: photos_dir/capture.json
   std::string out_dir;
   int silhouette_iterations = 10;
-  int threads = 0;
+  int threads = 0;  // 0 = all cores (silhouettes, photos, COLMAP)
   bool progress = true;
   void Check() const;
 };
