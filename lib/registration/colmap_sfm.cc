@@ -64,12 +64,13 @@ ColmapModel RunColmapSfm(const std::vector<std::string>& paths, const Camera& ca
               " --SiftExtraction.use_gpu 0 --SiftExtraction.max_image_size ", o.max_image_size,
               " --SiftExtraction.num_threads ", o.threads),
           workspace, o);
-  RunStep("exhaustive_matcher", Msg("--database_path ", db, " --SiftMatching.use_gpu 0 --SiftMatching.num_threads ", o.threads),
+  RunStep("exhaustive_matcher", Msg("--database_path ", db, " --SiftMatching.use_gpu 0 --SiftMatching.num_threads ", o.threads,
+                                     " --random_seed ", o.random_seed),
           workspace, o);
   RunStep("mapper",
           Msg("--database_path ", db, " --image_path ", Quote(images.string()), " --output_path ", Quote(sparse.string()),
               " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0",
-              " --Mapper.ba_refine_extra_params 0 --Mapper.num_threads ", o.threads),
+              " --Mapper.ba_refine_extra_params 0 --Mapper.num_threads ", o.threads, " --random_seed ", o.random_seed),
           workspace, o);
   // The largest of the reconstructions (sparse/0, sparse/1, ...).
   fs::path best;

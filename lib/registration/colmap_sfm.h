@@ -20,6 +20,9 @@ struct ColmapSfmOptions {
   std::string colmap = "colmap";
   int max_image_size = 1600;
   int threads = -1;
+  // COLMAP's --random_seed of the matcher's and mapper's RANSAC (COLMAP
+  // 3.8): another seed is another try when a reconstruction fails.
+  int random_seed = 0;
   void Check() const;
 };
 
