@@ -636,7 +636,7 @@ TEST(RegistrationColmap, ColmapPosesPlacedAndScaled) {
 
   // A COLMAP model that disagrees with the board poses (the mapper's rare
   // wrong convergence, here faked: a wrapper turns one camera of the first
-  // attempt's model by 180 deg) is run again with another seed.
+  // attempt's model by 90 deg about its x axis) is run again with another seed.
   const std::string state = tmpl + "/fake_colmap_seed", wrapper = tmpl + "/fake_colmap.sh";
   WriteFileAtomic(wrapper, "#!/bin/bash\n"
                            "out=''; seed=''; prev=''\n"
@@ -644,7 +644,9 @@ TEST(RegistrationColmap, ColmapPosesPlacedAndScaled) {
                            "[ \"$1\" = mapper ] && echo \"$seed\" > '" + state + "'\n"
                            "colmap \"$@\" || exit $?\n"
                            "if [ \"$1\" = model_converter ] && [ \"$(cat '" + state + "')\" = 0 ]; then\n"
-                           "  awk 'BEGIN{d=0} /^#/{print;next} {if(!d && NF==10){t=$2;$2=$3;$3=t;d=1} print}' \"$out/images.txt\" > \"$out/x\" && mv \"$out/x\" \"$out/images.txt\"\n"
+                           "  awk 'BEGIN{d=0;c=sqrt(0.5)} /^#/{print;next} {if(!d && NF==10){w=$2;x=$3;y=$4;z=$5;"
+                           "$2=w*c-x*c;$3=w*c+x*c;$4=y*c+z*c;$5=z*c-y*c;d=1} print}' \"$out/images.txt\" > \"$out/x\" && "
+                           "mv \"$out/x\" \"$out/images.txt\"\n"
                            "fi\n");
   fs::permissions(wrapper, fs::perms::owner_all);
   desc["colmap_executable"] = wrapper;
@@ -652,6 +654,7 @@ TEST(RegistrationColmap, ColmapPosesPlacedAndScaled) {
   const nlohmann::json again = QuickCapture(tmpl + "/raw", tmpl + "/capture_again", "", 1);
   std::printf("faked wrong first model: %d attempts, worst %.3f deg\n", again["colmap"]["attempts"].get<int>(),
               again["colmap"]["vs_board_worst_deg"].get<double>());
+  if (again.contains("warnings")) std::printf("%s\n", again["warnings"].dump(1).c_str());
   EXPECT_GE(again["colmap"]["attempts"].get<int>(), 2);  // 3 if the real second run went wrong too
   EXPECT_LT(again["colmap"]["vs_board_worst_deg"].get<double>(), 1.0);
   ASSERT_TRUE(again.contains("warnings"));
