@@ -1,13 +1,11 @@
 #include "pipeline/merge_stage.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <utility>
 
 #include "cluster/holdout.h"
-#include "cluster/stats.h"
 #include "core/error.h"
 #include "core/parallel.h"
 #include "fit/fit.h"
@@ -38,44 +36,20 @@ bool MergePays(double merged_rmse, double apart_rmse, double min_improvement) {
 
 namespace {
 
-// Held-out squared error of one texel's samples predicted as a non-negative
-// mix of the given materials' predictions, the weights solved on the
-// texel's training samples (as the mixing weights are).
-double MixedTexelError(const SampleSet& samples, const std::vector<int64_t>& train, const std::vector<int64_t>& hold,
-                       const std::vector<const BasisMaterial*>& mats) {
-  const int n = int(mats.size());
-  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(n, n);
-  Eigen::VectorXd aty = Eigen::VectorXd::Zero(n);
+// Held-out squared error of one texel's samples predicted by a material
+// scaled by a non-negative weight, the weight solved on the texel's
+// training samples (as a scalar mixing weight is).
+double ScaledTexelError(const SampleSet& samples, const std::vector<int64_t>& train, const std::vector<int64_t>& hold,
+                        const BasisMaterial& m) {
+  double pp = 0, py = 0;
   for (int64_t s : train) {
-    Eigen::Matrix<double, 3, Eigen::Dynamic> a(3, n);
-    for (int k = 0; k < n; ++k) a.col(k) = PredictSample(mats[k]->spec, mats[k]->params.data(), samples, s).matrix();
-    const Eigen::Vector3d y(samples.y[0][s], samples.y[1][s], samples.y[2][s]);
-    ata += a.transpose() * a, aty += a.transpose() * y;
+    const Rgb p = PredictSample(m.spec, m.params.data(), samples, s);
+    for (int c = 0; c < 3; ++c) pp += p[c] * p[c], py += p[c] * samples.y[c][s];
   }
-  // Non-negative least squares by enumerating the active sets (n <= 2).
-  Eigen::VectorXd w = Eigen::VectorXd::Zero(n);
-  double best = 0;  // objective relative to ||y||^2: -2 w.aty + w' ata w
-  for (int mask = 1; mask < (1 << n); ++mask) {
-    std::vector<int> idx;
-    for (int k = 0; k < n; ++k)
-      if (mask & (1 << k)) idx.push_back(k);
-    Eigen::MatrixXd m(idx.size(), idx.size());
-    Eigen::VectorXd r(idx.size());
-    for (size_t p = 0; p < idx.size(); ++p) {
-      r[p] = aty[idx[p]];
-      for (size_t q = 0; q < idx.size(); ++q) m(p, q) = ata(idx[p], idx[q]);
-    }
-    const Eigen::VectorXd x = m.ldlt().solve(r);
-    if ((x.array() < 0).any() || !x.allFinite()) continue;
-    Eigen::VectorXd cand = Eigen::VectorXd::Zero(n);
-    for (size_t p = 0; p < idx.size(); ++p) cand[idx[p]] = x[p];
-    const double obj = -2 * cand.dot(aty) + cand.dot(ata * cand);
-    if (obj < best) best = obj, w = cand;
-  }
+  const double w = pp > 0 ? std::max(0.0, py / pp) : 0.0;
   double sse = 0;
   for (int64_t s : hold) {
-    Rgb p = Rgb::Zero();
-    for (int k = 0; k < n; ++k) p += w[k] * PredictSample(mats[k]->spec, mats[k]->params.data(), samples, s);
+    const Rgb p = w * PredictSample(m.spec, m.params.data(), samples, s);
     for (int c = 0; c < 3; ++c) sse += (p[c] - samples.y[c][s]) * (p[c] - samples.y[c][s]);
   }
   return sse;
@@ -85,6 +59,10 @@ double MixedTexelError(const SampleSet& samples, const std::vector<int64_t>& tra
 
 MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
                     int i, int j, const std::vector<char>& held_image, const FitOptions& fo) {
+  auto held = [&](int64_t s) {
+    const int im = samples.image[s];
+    return im >= 0 && im < int(held_image.size()) && held_image[im];
+  };
   std::vector<int64_t> train[2], train_both;
   std::vector<std::pair<int, int>> texels;  // (texel, side)
   for (int t = 0; t < samples.num_texels; ++t) {
@@ -92,8 +70,7 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
     if (side < 0) continue;
     texels.emplace_back(t, side);
     for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
-      const int im = samples.image[s];
-      if (im >= 0 && im < int(held_image.size()) && held_image[im]) continue;
+      if (held(s)) continue;
       train[side].push_back(s);
       train_both.push_back(s);
     }
@@ -120,13 +97,10 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
   int64_t count = 0;
   for (const auto& [t, side] : texels) {
     std::vector<int64_t> tr, ho;
-    for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
-      const int im = samples.image[s];
-      (im >= 0 && im < int(held_image.size()) && held_image[im] ? ho : tr).push_back(s);
-    }
+    for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) (held(s) ? ho : tr).push_back(s);
     if (tr.empty() || ho.empty()) continue;
-    apart_sse += MixedTexelError(samples, tr, ho, {&apart[side]});
-    for (int side = 0; side < 2; ++side) merged_sse[side] += MixedTexelError(samples, tr, ho, {&merged[side]});
+    apart_sse += ScaledTexelError(samples, tr, ho, apart[side]);
+    for (int k = 0; k < 2; ++k) merged_sse[k] += ScaledTexelError(samples, tr, ho, merged[k]);
     count += int64_t(ho.size());
   }
   if (count == 0) return r;

@@ -280,14 +280,17 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       for (Photo& p : photos) p.posed = false;
       known.clear();
     }
-    // COLMAP's mapper sometimes converges to a wrong model (measured in the
-    // COLMAP e2e test: 1 run in ~10 placed its poses 29 deg and 367 mm from
-    // the board poses, against 0.1-0.9 deg otherwise). Where the board
+    // COLMAP's mapper sometimes converges to a wrong model (seen three times
+    // in the COLMAP e2e test's runs: poses 29 deg and 367 mm from the board
+    // poses, against 0.1-0.9 deg otherwise). Where the board
     // gives poses to compare with, a model that disagrees by more than
     // kMaxBoardDisagreementDeg is run again with another RANSAC seed, up to
     // kColmapAttempts times; the last one is kept with a warning.
     constexpr double kMaxBoardDisagreementDeg = 5.0;
     constexpr int kColmapAttempts = 3;
+    std::optional<KnownDistance> known_distance;
+    if (desc.contains("known_distance"))
+      known_distance = KnownDistanceFromJson(desc["known_distance"], ctx + ": known_distance");
     ColmapModel model;
     ColmapToBoard align;
     double worst_deg = 0, worst_mm = 0;
@@ -301,8 +304,7 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       // Placed by the photos that show the board (3 or more); else scaled by
       // a known distance (orientation and origin then stay COLMAP's, and every
       // photo takes its COLMAP pose); with both, the known distance is a check.
-      if (desc.contains("known_distance"))
-        by_distance = ScaleColmapByKnownDistance(model, KnownDistanceFromJson(desc["known_distance"], ctx + ": known_distance"));
+      if (known_distance) by_distance = ScaleColmapByKnownDistance(model, *known_distance);
       align = by_board ? AlignColmapToBoard(model, known) : *by_distance;
       // Agreement of the two pose sources where both exist.
       worst_deg = 0, worst_mm = 0;
