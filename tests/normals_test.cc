@@ -516,7 +516,7 @@ TEST(NormalMap, RoundTripsThroughTheMaterialLookup) {
   const Patch p = MakePatch(Lambert(), 4, 20.0, 3, 0.0, 6);
   Material m;
   m.width = m.height = 4;
-  m.normal_map = NormalMapImage(p.atlas, p.truth);
+  m.normal_map = NormalMapImage(p.atlas, p.truth, NormalMapSpace::kWorld);
   const NormalErrors e = CompareNormals(p.atlas, p.truth, m);
   EXPECT_LT(e.mean_deg, 1e-4);
   Material none;  // without a map the truth is the mesh normal

@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -65,6 +66,11 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--normal-bootstrap-rounds", job->alternation.bootstrap_rounds,
                 "when refined normals lower some material's held-out error but are not kept: normals <-> materials\n"
                 "rounds from normals on every texel, kept if the held-out error drops (0 = off)");
+  c->add_option("--normal-map-space", job->normal_map_space,
+                "space of the written normal map: tangent (the mesh's turn within a texel is kept) or world (the\n"
+                "texel centre's normal holds across the texel; the format before material.json's normal_map_space)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, NormalMapSpace>{{"tangent", NormalMapSpace::kTangent}, {"world", NormalMapSpace::kWorld}}));
   c->add_flag("--merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames (undoes splits the bumps caused; off by default)");

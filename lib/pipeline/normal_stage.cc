@@ -68,7 +68,7 @@ double PhotoError(const Material& material, const Scene& scene, const std::vecto
 
 PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
-                                  int max_photos) {
+                                  NormalMapSpace map_space, int max_photos) {
   PhotoCheck out;
   const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
   std::vector<size_t> images;
@@ -78,7 +78,11 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
   if (images.empty()) return out;
   Material without = ToMaterial(before, g.atlas, g.mesh);
   Material with = ToMaterial(after, g.atlas, g.mesh);
-  with.normal_map = NormalMapImage(g.atlas, nr.normal);
+  // The map as reconstruct writes it: in a world-space map the texel
+  // centre's normal holds across the texel, a tangent-space one turns with
+  // the mesh (normal_map_space.h), and the photos see the difference.
+  with.normal_map = NormalMapImage(g.atlas, nr.normal, map_space);
+  with.normal_map_space = map_space;
   out.error_without_map = PhotoError(without, scene, images, eo.threads);
   out.error_with_map = PhotoError(with, scene, images, eo.threads);
   return out;
@@ -112,7 +116,8 @@ nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est
 
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
-                                SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene) {
+                                SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene,
+                                NormalMapSpace map_space) {
   ao.Check();
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
@@ -151,7 +156,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     timer->Start("normal map photo check");
     SvbrdfEstimate with = est;
     with.weights = nr.weights;
-    const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr);
+    const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr, map_space);
     const bool pass = PhotoCheckPasses(pc, no.min_improvement);
     std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
                  pc.error_without_map, pc.error_with_map, pass ? "kept" : "not kept (mesh normals)");

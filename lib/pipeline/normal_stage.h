@@ -10,6 +10,7 @@
 #include "cluster/reconstruct.h"
 #include "core/progress.h"
 #include "gather/gather.h"
+#include "io/normal_map_space.h"
 #include "io/scene.h"
 #include "normals/refine.h"
 
@@ -52,7 +53,8 @@ struct NormalAlternationOptions {
 // ends with the mesh normals (saves the rounds' time where the map loses).
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
-                                SvbrdfEstimate* est, nlohmann::json* rounds, const Scene* scene = nullptr);
+                                SvbrdfEstimate* est, nlohmann::json* rounds, const Scene* scene = nullptr,
+                                NormalMapSpace map_space = NormalMapSpace::kTangent);
 
 // The photo check of a kept refinement: the clustering's estimate `before`
 // (mesh normals) and the stage's `after` with its normal map, each rendered
@@ -70,7 +72,7 @@ struct PhotoCheck {
 };
 PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
-                                  int max_photos = 4);
+                                  NormalMapSpace map_space = NormalMapSpace::kTangent, int max_photos = 4);
 // The map is kept when it lowers that error by `min_improvement` (relative), or there are no photos.
 bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement);
 

@@ -56,7 +56,7 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
 // between mesh and true normals.
 nlohmann::json WriteNormalPictures(const Scene& scene, const GatherResult& g, const NormalRefinement& nr,
                                    const std::string& dir) {
-  Image rgb = NormalMapImage(g.atlas, nr.normal);
+  Image rgb = NormalMapImage(g.atlas, nr.normal, NormalMapSpace::kWorld);
   for (float& v : rgb.pixels) v = 0.5f * (v + 1.0f);
   WriteImage(dir + "/normals.png", rgb, PixelFormat::kUInt8, ColorSpace::kLinear);
   nlohmann::json out = {{"normal_map", "normals.png"}};
@@ -125,13 +125,14 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   nlohmann::json normals_rounds = nlohmann::json::array();
   const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
   NormalRefinement nr =
-      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds, &scene);
+      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds, &scene,
+                     job.normal_map_space);
   nlohmann::json photo_check;
   if (nr.kept && no.mode == "on") {
     // The map as relight uses it, on held-out photos (normal_stage.h), after
     // the material rounds too (the stage checked the first refinement).
     timer.Start("normal map photo check");
-    const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr);
+    const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr, job.normal_map_space);
     const bool keep = PhotoCheckPasses(pc, no.min_improvement);
     std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
                  pc.error_without_map, pc.error_with_map, keep ? "kept" : "not kept (mesh normals, clustering's estimate)");
@@ -150,7 +151,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
 
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);
-  if (nr.kept) material.normal_map = NormalMapImage(g.atlas, nr.normal);
+  if (nr.kept) {
+    material.normal_map = NormalMapImage(g.atlas, nr.normal, job.normal_map_space);
+    material.normal_map_space = job.normal_map_space;
+  }
   material.extra = {{"source", "svbrdf reconstruct"}, {"scene", job.scene_path}};
   SaveMaterial(material, job.out_dir);
   material = LoadMaterial(job.out_dir);  // what relight will see

@@ -22,6 +22,9 @@ struct ReconstructionJob {
   NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
   NormalAlternationOptions alternation;  // normals <-> materials bootstrap (normal_stage.h)
   MergeOptions merge;                    // same-family materials merged in the refined frames (merge_stage.h)
+  // Space of the written normal map (io/normal_map_space.h); the photo check
+  // renders the map in it. World is the format before "normal_map_space".
+  NormalMapSpace normal_map_space = NormalMapSpace::kTangent;
   bool report = true;  // pictures and summary under out_dir/report
   // Anytime (seconds, 0 = none): the best material found within this wall
   // time from the start, always a complete folder. Gathering and one cluster
