@@ -85,7 +85,17 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
   with.normal_map_space = map_space;
   out.error_without_map = PhotoError(without, scene, images, eo.threads);
   out.error_with_map = PhotoError(with, scene, images, eo.threads);
+  with.normal_map = Image();
+  out.error_refined_no_map = PhotoError(with, scene, images, eo.threads);
   return out;
+}
+
+PhotoChoice ChooseOnPhotos(const PhotoCheck& pc, double min_improvement) {
+  if (pc.photos == 0) return PhotoChoice::kRefinedWithMap;
+  const bool map = pc.error_with_map <= pc.error_refined_no_map;
+  const double best = map ? pc.error_with_map : pc.error_refined_no_map;
+  if (!(best < (1.0 - min_improvement) * pc.error_without_map)) return PhotoChoice::kMeshNormals;
+  return map ? PhotoChoice::kRefinedWithMap : PhotoChoice::kRefinedWithoutMap;
 }
 
 bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement) {
@@ -158,10 +168,12 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     with.weights = nr.weights;
     const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr, map_space);
     const bool pass = PhotoCheckPasses(pc, no.min_improvement);
-    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
-                 pc.error_without_map, pc.error_with_map, pass ? "kept" : "not kept (mesh normals)");
+    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with (%g refined without "
+                 "the map): %s\n", pc.photos, pc.error_without_map, pc.error_with_map, pc.error_refined_no_map,
+                 pass ? "kept" : "not kept (mesh normals)");
     rounds->back()["photo_check"] = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
-                                     {"error_with_map", pc.error_with_map}, {"kept", pass}};
+                                     {"error_with_map", pc.error_with_map},
+                                     {"error_refined_no_map", pc.error_refined_no_map}, {"kept", pass}};
     if (!pass) return NormalRefinement();
   }
   // Normals <-> materials: materials fitted under the mesh normals are
