@@ -50,6 +50,15 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "2 suits photos that integrate the pixel, e.g. real cameras, on scans whose normal turns within a pixel)");
   c->add_option("--max-footprint-turn", job->gather.max_footprint_turn_deg,
                 "reject samples whose pixel footprint spans more than this turn of the mesh normal (degrees; 0 = off)");
+  c->add_option("--max-lookup-contrast", job->gather.max_lookup_contrast,
+                "reject samples whose photo changes steeply within the bilinear lookup: (max - min) / (max + min)\n"
+                "of its four pixels above this (1 = off)");
+  c->add_option("--probe-rays", job->gather.probe_rays,
+                "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off)");
+  c->add_option("--max-unlit-share", job->gather.max_unlit_share,
+                "with --probe-rays: reject samples whose footprint is unlit beyond this share (1 = off)");
+  c->add_option("--max-probe-foreign-share", job->gather.max_probe_foreign_share,
+                "with --probe-rays: reject samples whose footprint sees another surface beyond this share (1 = off)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")

@@ -105,6 +105,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
 
   timer.Start("gather samples");
   GatherResult g = Gather(scene, job.gather);
+  if (job.after_gather) job.after_gather(g);
   std::fprintf(stderr, "  %s\n", g.stats.Report().c_str());
 
   timer.Start("fit + cluster");

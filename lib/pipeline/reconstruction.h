@@ -3,6 +3,7 @@
 // NNLS weights), refine per-texel normals (lib/normals), write the material folder and a report with pictures and a
 // summary JSON. Per-stage timings and peak memory are recorded.
 #pragma once
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -35,6 +36,9 @@ struct ReconstructionJob {
   // Seconds already spent when RunReconstruction starts that count against
   // the budget (the CLI passes the program's start-up: ProcessAgeSeconds).
   double time_spent_before_s = 0;
+  // Called on the gathered samples before the estimate (bench tools: e.g.
+  // an oracle that drops samples by their disagreement with a known truth).
+  std::function<void(GatherResult&)> after_gather;
 };
 
 // Returns the summary (also written to out_dir/report/summary.json).
