@@ -53,6 +53,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--max-lookup-contrast", job->gather.max_lookup_contrast,
                 "reject samples whose photo changes steeply within the bilinear lookup: (max - min) / (max + min)\n"
                 "of its four pixels above this (1 = off)");
+  c->add_option("--contrast-min-turn", job->gather.contrast_min_turn_deg,
+                "--max-lookup-contrast rejects only where the pixel footprint spans at least this turn of the mesh\n"
+                "normal (degrees; 0 = everywhere)");
   c->add_option("--probe-rays", job->gather.probe_rays,
                 "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off)");
   c->add_option("--max-unlit-share", job->gather.max_unlit_share,

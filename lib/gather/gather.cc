@@ -35,6 +35,8 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: max unlit share must be in [0, 1], got ", max_unlit_share));
   if (!(max_probe_foreign_share >= 0 && max_probe_foreign_share <= 1))
     throw Error(Msg("gather: max probe foreign share must be in [0, 1], got ", max_probe_foreign_share));
+  if (!(contrast_min_turn_deg >= 0 && contrast_min_turn_deg <= 180))
+    throw Error(Msg("gather: contrast min turn must be in [0, 180] degrees, got ", contrast_min_turn_deg));
   if (!(max_lookup_contrast >= 0 && max_lookup_contrast <= 1))
     throw Error(Msg("gather: max lookup contrast must be in [0, 1], got ", max_lookup_contrast));
   if (max_atlas_size < 16 || max_atlas_size > 16384)
@@ -225,9 +227,10 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   const bool no_border = out.made_uvs && !options.border_texel_samples;
   const int footprint_rays = options.footprint_rays;
   std::vector<double> turn_rate;
-  if (options.max_footprint_turn_deg > 0)
+  if (options.max_footprint_turn_deg > 0 || (options.max_lookup_contrast < 1 && options.contrast_min_turn_deg > 0))
     for (const Texel& t : atlas.texels) turn_rate.push_back(NormalTurnRate(out.mesh, t));
   const double max_turn = options.max_footprint_turn_deg * kPi / 180;
+  const double min_contrast_turn = options.contrast_min_turn_deg * kPi / 180;
 
   // Kept samples per image (texel, record); one full-size scratch buffer is
   // reused across images, so memory grows with kept samples, not texels x views.
@@ -278,8 +281,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       const double dist = to_eye.norm();
       to_eye /= dist;
       if (n.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
-      if (!turn_rate.empty() && turn_rate[t] * dist / cam.fx() / n.dot(to_eye) > max_turn)
-        return void(r.reason = kTurning);
+      const double footprint_turn = turn_rate.empty() ? 0.0 : turn_rate[t] * dist / cam.fx() / n.dot(to_eye);
+      if (options.max_footprint_turn_deg > 0 && footprint_turn > max_turn) return void(r.reason = kTurning);
       if (tracer.Occluded(x + n * eps, to_eye, 0.0, dist - 2 * eps)) return void(r.reason = kOccluded);
       const int x0 = static_cast<int>(std::floor(px.x() - 0.5)), y0 = static_cast<int>(std::floor(px.y() - 0.5));
       if (!e.mask.empty()) {
@@ -343,7 +346,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
           lo = std::min(lo, v), hi = std::max(hi, v);
         }
       const double contrast = (hi - lo) / (hi + lo + 2 * options.noise_floor);
-      if (contrast > options.max_lookup_contrast) return void(r.reason = kContrast);
+      if (contrast > options.max_lookup_contrast && footprint_turn >= min_contrast_turn)
+        return void(r.reason = kContrast);
       r.probe.contrast = static_cast<float>(contrast);
       if (options.probe_rays > 0) {
         const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);

@@ -73,8 +73,14 @@ struct GatherOptions {
   // change of the photo within the lookup (a highlight on a normal that
   // turns within the pixel, a shadow boundary, an occluding edge) means the
   // interpolated value is not the texel centre's. Samples above it are
-  // rejected; 1 = off (the contrast is < 1).
-  double max_lookup_contrast = 1.0;
+  // rejected when their pixel footprint also spans at least
+  // `contrast_min_turn_deg` of the mesh normal's turn (see
+  // max_footprint_turn_deg; 0 = everywhere): where the mesh is flat at the
+  // pixel's scale the change is the material's or a normal map's own signal
+  // (bump captures lose 1.7 dB without that condition). 1 = off (the
+  // contrast is < 1).
+  double max_lookup_contrast = 0.3;
+  double contrast_min_turn_deg = 3.0;
   double max_unlit_share = 1.0;          // reject above this unlit share of the footprint (1 = keep all)
   double max_probe_foreign_share = 1.0;  // reject above this foreign share of the footprint (1 = keep all)
   // Generated chart atlases (meshes without UVs): texels outside every UV
