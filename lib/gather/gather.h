@@ -78,8 +78,12 @@ struct GatherOptions {
   // max_footprint_turn_deg; 0 = everywhere): where the mesh is flat at the
   // pixel's scale the change is the material's or a normal map's own signal
   // (bump captures lose 1.7 dB without that condition). 1 = off (the
-  // contrast is < 1).
-  double max_lookup_contrast = 0.3;
+  // contrast is < 1), the default: 0.3 gains the Mitsuba bunny scan
+  // 1.2-1.7 dB over three seeds but splits the tiny preset's five materials
+  // into four (38.9 instead of 47.5 dB held-out) and, at a 6 deg condition,
+  // costs the bunny 2.4 dB (bench_results/independent.md, stop 18 "sample
+  // quality").
+  double max_lookup_contrast = 1.0;
   double contrast_min_turn_deg = 3.0;
   double max_unlit_share = 1.0;          // reject above this unlit share of the footprint (1 = keep all)
   double max_probe_foreign_share = 1.0;  // reject above this foreign share of the footprint (1 = keep all)

@@ -169,7 +169,7 @@ TEST(Gather, SamplesWhereTheNormalTurnsWithinThePixelAreRejected) {
 // Where the photo changes steeply within a sample's bilinear lookup (here:
 // the bumps' highlights, which turn within a pixel), the interpolated value
 // is not the texel centre's; rejecting such samples
-// (GatherOptions::max_lookup_contrast, on by default) leaves samples that
+// (GatherOptions::max_lookup_contrast) leaves samples that
 // agree better with the true BRDF, and rejects almost none on a smooth
 // sphere, whose mesh does not turn within a pixel.
 TEST(Gather, SamplesWhosePhotoChangesSteeplyWithinTheLookupAreRejected) {
@@ -177,9 +177,10 @@ TEST(Gather, SamplesWhosePhotoChangesSteeplyWithinTheLookupAreRejected) {
   const SynthOptions o = BumpySphereCapture(dir);
   const Scene scene = LoadScene(dir + "/cap/scene.json");
   const Material gt = LoadMaterial(dir + "/cap/gt");
-  GatherOptions go;  // the defaults reject
+  GatherOptions go;
   go.texture_size = o.material.texture_size;
   go.progress = false;
+  go.max_lookup_contrast = 0.3;
   const GatherResult kept = Gather(scene, go);
   GatherOptions off = go;
   off.max_lookup_contrast = 1;
