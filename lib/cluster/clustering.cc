@@ -116,7 +116,17 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
   fo.multi_start = false;
-  FitResult robust = FitModel(spec, s_, ids, fo, ls.params);
+  // A robust refit that Ceres gives up on (e.g. too many invalid steps near a
+  // bound) leaves the least-squares fit, which is a valid material; only
+  // without one does the failure end the fit.
+  FitResult robust;
+  try {
+    robust = FitModel(spec, s_, ids, fo, ls.params);
+  } catch (const Error& e) {
+    if (skip_ls) throw;
+    std::fprintf(stderr, "  warning: %s; the least-squares fit is kept\n", e.what());
+    return ls;
+  }
   return skip_ls || robust.converged || !ls.converged ? robust : ls;
 }
 
@@ -297,7 +307,13 @@ void Refine(Clustering& cl, int iterations, bool fits_current) {
       if ((it > 0 || fits_current) && !removed && !cl.MembershipChanged(k)) continue;
       BasisMaterial b = cl.basis()[k];
       // Warm start: the material already fits most of the cluster's texels.
-      b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
+      // A refit that fails keeps that material (a valid fit of nearly the
+      // same texels) instead of ending the reconstruction.
+      try {
+        b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
+      } catch (const Error& e) {
+        std::fprintf(stderr, "  warning: %s; cluster %d keeps its previous fit\n", e.what(), k);
+      }
       cl.SetBasis(k, b);
     }
   }
