@@ -62,6 +62,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
               "when refined normals are kept: cluster again on the reoriented samples (about doubles the time)");
   c->add_option("--material-rounds", job->normals.material_rounds,
                 "when refined normals are kept: refit the basis materials with them and refine again, up to this many times");
+  c->add_option("--polish-basis", job->normals.polish_basis,
+                "in each material round: fit the basis materials jointly with their interior texels' tilts (default 1)");
   c->add_option("--normal-bootstrap-rounds", job->alternation.bootstrap_rounds,
                 "when refined normals lower some material's held-out error but are not kept: normals <-> materials\n"
                 "rounds from normals on every texel, kept if the held-out error drops (0 = off)");

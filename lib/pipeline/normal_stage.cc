@@ -6,6 +6,8 @@
 
 #include "cluster/holdout.h"
 #include "core/error.h"
+#include "io/material.h"
+#include "normals/basis_polish.h"
 #include "normals/normal_map.h"
 #include "raytrace/raytracer.h"
 #include "relight/relight.h"
@@ -94,7 +96,10 @@ namespace {
 constexpr double kNormalDecisionShare = 0.35;
 
 nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est) {
+  nlohmann::json basis = nlohmann::json::array();
+  for (const auto& b : est.basis) basis.push_back(BasisToJson(b));
   return {{"kept", nr.kept},
+          {"basis", basis},
           {"clusters", est.basis.size()},
           {"heldout_rmse_mesh", nr.heldout_rmse_mesh},
           {"heldout_rmse_refined", nr.heldout_rmse_refined},
@@ -196,6 +201,12 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     }
     timer->Start("refit materials (refined normals)");
     SvbrdfEstimate est2 = RefitSvbrdf(ReorientSamples(g.samples, start), g.atlas, eo, est);
+    if (no.polish_basis && nr.kept) {
+      timer->Start("polish basis with the tilts");
+      for (const BasisPolishReport& r :
+           PolishBasisWithTilts(g.samples, g.atlas, no, start, nr.material_kept, nr.noise_sigma, eo.fit.max_samples, &est2))
+        std::fprintf(stderr, "  %s\n", Report(r, est2).c_str());
+    }
     timer->Start("refine normals again");
     NormalRefinement nr2 = RefineNormals(g.samples, g.atlas, est2, no, &start);
     std::fprintf(stderr, "  material round %d: %s\n", round + 1, nr2.Report().c_str());
