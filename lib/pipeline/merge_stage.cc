@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "fit/fit.h"
+#include "pipeline/normal_stage.h"
 
 namespace svbrdf {
 
@@ -113,7 +114,8 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
 }
 
 MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& eo, const NormalRefinement& nr,
-                               const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est) {
+                               const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est,
+                               NormalRefinement* follow) {
   mo.Check();
   MergeReport report;
   if (!mo.enabled || !nr.kept || est->basis.size() < 2) return report;
@@ -181,6 +183,7 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
                                confirmed ? ": merged" : ": kept apart"));
     std::fprintf(stderr, "  merge: %s\n", report.lines.back().c_str());
     if (!confirmed) break;
+    if (follow) FollowMerge(pairs[best].first, pairs[best].second, merged, follow);
     *est = merged;
     apart = std::move(merged);
     ++report.merges;

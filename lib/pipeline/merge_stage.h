@@ -60,8 +60,11 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
 // apart RMSE, goes on), then on the whole estimate refitted apart and merged
 // (RefitSvbrdf: model choice, weights with their priors). `est` is replaced
 // by the merged refit.
+// `follow`: the refinement whose per-material entries and weights follow
+// each merge (FollowMerge, normal_stage.h); may be null.
 MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& eo, const NormalRefinement& nr,
-                               const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est);
+                               const MergeOptions& mo, double cluster_seconds, StageTimer* timer, SvbrdfEstimate* est,
+                               NormalRefinement* follow = nullptr);
 
 // The estimate with basis material `from` joined to `into` (labels moved,
 // higher indices shifted down; weights dropped: the refit solves them).

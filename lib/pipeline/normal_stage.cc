@@ -115,9 +115,22 @@ nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est
 
 }  // namespace
 
+void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinement* nr) {
+  auto drop = [&](auto& v) {
+    if (from < int(v.size())) v.erase(v.begin() + from);
+  };
+  if (into < int(nr->material_kept.size()) && from < int(nr->material_kept.size()))
+    nr->material_kept[into] = nr->material_kept[into] || nr->material_kept[from];
+  drop(nr->material_kept);
+  drop(nr->heldout_rmse_mesh_by_material);
+  drop(nr->heldout_rmse_refined_by_material);
+  nr->weights = merged.weights;
+}
+
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
-                                SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene) {
+                                SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene,
+                                const MergeOptions& merge, MergeReport* merged) {
   ao.Check();
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
@@ -194,6 +207,10 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     }
   }
   if (nr.kept) start = nr.tilt;
+  if (nr.kept && merge.enabled) {
+    MergeReport m = MergeSameMaterials(g, eo, nr, merge, cluster_seconds, timer, &est, &nr);
+    if (merged) *merged = std::move(m);
+  }
   for (int round = 0; round < material_rounds && !start.empty(); ++round) {
     if (eo.SecondsLeft() <= cluster_seconds / 2) {
       est.cut_by_deadline.push_back("material refit");

@@ -124,8 +124,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.deadline = eo.deadline;
   nlohmann::json normals_rounds = nlohmann::json::array();
   const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
-  NormalRefinement nr =
-      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds, &scene);
+  MergeReport merge;  // the merge stage runs inside the normal stage, before its material rounds
+  NormalRefinement nr = RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds,
+                                       &scene, job.merge, &merge);
   nlohmann::json photo_check;
   if (nr.kept && no.mode == "on") {
     // The map as relight uses it, on held-out photos (normal_stage.h), after
@@ -142,7 +143,6 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
       nr = NormalRefinement();
     }
   }
-  const MergeReport merge = MergeSameMaterials(g, eo, nr, job.merge, cluster_seconds, &timer, &est);
   // The output weights (re-solved with the refined normals when those were
   // kept) get the region-interior smoothing that the held-out samples chose
   // for the estimate's weights; the normal stage saw them unsmoothed.
