@@ -159,6 +159,28 @@ TEST(NormalStage, MaterialRoundKeptWhenNotWorseRepeatedWhenClearlyBetter) {
   EXPECT_FALSE(d.again);
 }
 
+// A merge inside the normal stage (before the material rounds): the
+// refinement's per-material entries follow the merged estimate's indices
+// (the merged material keeps refined normals when either part did; the
+// polish and the rounds read them by index) and its weights become the
+// merged estimate's.
+TEST(NormalStage, RefinementFollowsAMergeOfTwoMaterials) {
+  NormalRefinement nr;
+  nr.material_kept = {1, 0, 1, 0};
+  nr.heldout_rmse_mesh_by_material = {0.1, 0.2, 0.3, 0.4};
+  nr.heldout_rmse_refined_by_material = {0.01, 0.02, 0.03, 0.04};
+  nr.weights.assign(4 * 3, 1.0f);
+  SvbrdfEstimate merged;
+  merged.weights.assign(3 * 3, 0.5f);
+  FollowMerge(1, 3, merged, &nr);  // 3 into 1: neither kept
+  EXPECT_EQ(nr.material_kept, (std::vector<char>{1, 0, 1}));
+  EXPECT_EQ(nr.heldout_rmse_mesh_by_material, (std::vector<double>{0.1, 0.2, 0.3}));
+  EXPECT_EQ(nr.weights, merged.weights);
+  FollowMerge(1, 2, merged, &nr);  // 2 (kept) into 1 (not): the merged one is kept
+  EXPECT_EQ(nr.material_kept, (std::vector<char>{1, 1}));
+  EXPECT_EQ(nr.heldout_rmse_refined_by_material, (std::vector<double>{0.01, 0.02}));
+}
+
 // The bootstrap of the normals <-> materials alternation starts when the
 // first refinement lowers some material's held-out error by the given share
 // (relative, on squared errors), even if the whole is rejected; not when

@@ -67,9 +67,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--normal-bootstrap-rounds", job->alternation.bootstrap_rounds,
                 "when refined normals lower some material's held-out error but are not kept: normals <-> materials\n"
                 "rounds from normals on every texel, kept if the held-out error drops (0 = off)");
-  c->add_flag("--merge", job->merge.enabled,
+  c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
-              "frames (undoes splits the bumps caused; off by default)");
+              "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {
