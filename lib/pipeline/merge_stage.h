@@ -74,6 +74,10 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
 // higher indices shifted down; weights dropped: the refit solves them).
 SvbrdfEstimate WithMaterialsMerged(const SvbrdfEstimate& est, int into, int from);
 
+// `label` with -1 on texels that have an 8-neighbour of another label (the
+// texels TestMerge screens are the region-interior ones).
+std::vector<int> InteriorLabels(const Atlas& atlas, const std::vector<int>& label);
+
 // Whether a merge is kept: the materials apart are not lower by `min_improvement`.
 bool MergePays(double merged_rmse, double apart_rmse, double min_improvement);
 
