@@ -77,6 +77,35 @@ TEST(MergeStage, MergedEstimateRelabelsAndKeepsTheLargerClustersMaterial) {
   EXPECT_THROW(WithMaterialsMerged(est, 0, 3), Error);
 }
 
+// The merge screen's second label map: texels with an 8-neighbour of another
+// label (blend zones, borders) are left out (-1), region interiors kept.
+TEST(MergeStage, InteriorLabelsDropTexelsNextToAnotherLabel) {
+  Atlas atlas;
+  atlas.width = 4, atlas.height = 3;
+  atlas.index.assign(12, -1);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 4; ++x) {
+      Texel tx;
+      tx.x = x, tx.y = y;
+      atlas.index[y * 4 + x] = int(atlas.texels.size());
+      atlas.texels.push_back(tx);
+    }
+  // Columns 0-2 label 0, column 3 label 1.
+  std::vector<int> label(12, 0);
+  for (int y = 0; y < 3; ++y) label[y * 4 + 3] = 1;
+  const std::vector<int> in = InteriorLabels(atlas, label);
+  for (int y = 0; y < 3; ++y) {
+    EXPECT_EQ(in[y * 4 + 0], 0);
+    EXPECT_EQ(in[y * 4 + 1], 0);
+    EXPECT_EQ(in[y * 4 + 2], -1);  // next to column 3
+    EXPECT_EQ(in[y * 4 + 3], -1);
+  }
+  label[3] = 0;  // texel (3, 0) now label 0: column 3's others stay next to it
+  const std::vector<int> in2 = InteriorLabels(atlas, label);
+  EXPECT_EQ(in2[7], -1);
+  EXPECT_EQ(in2[0], 0);
+}
+
 // Samples of `per` texels per label, 12 photos each (random directions,
 // 1 % noise), rendered with the label's material.
 SampleSet SamplesOf(const std::vector<BasisMaterial>& truth, const std::vector<int>& label, uint64_t seed) {
