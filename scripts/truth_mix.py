@@ -8,7 +8,10 @@ the reconstruction's basis with the true weights and normals; and so on
 (bench_results/mixed.md, "Where the error goes").
 
 Maps are resampled bilinearly (texel centres) to the output resolution;
-normals renormalised. The mesh (and its UVs) come from the weights folder,
+normals renormalised. The normal map keeps its material.json
+"normal_map_space" (world: synth's ground truth; tangent: reconstruct's);
+--normals-on refuses to mix maps of different spaces (their numbers mean
+different normals). The mesh (and its UVs) come from the weights folder,
 so both folders must share the mesh's texture coordinates (a synthetic
 capture's reconstruction with the capture's UVs does).
 
@@ -67,15 +70,21 @@ def main():
         if 'normal_map' not in mn:
             raise SystemExit('truth_mix: %s has no normal_map' % a.normals)
         n = resize(load(a.normals + '/' + mn['normal_map']), R)
+        space = mn.get('normal_map_space', 'world')
         if a.normals_on:
             d, k = a.normals_on.split(':')
             md = json.load(open(d + '/material.json'))
+            if md.get('normal_map_space', 'world') != space:
+                raise SystemExit('truth_mix: %s/material.json normal_map_space is %s, %s/material.json %s: cannot mix them'
+                                 % (d, md.get('normal_map_space', 'world'), a.normals, space))
             w = resize(load(d + '/' + md['weights'][int(k)]), R)[..., 0]
             swap = resize(load(d + '/' + md['normal_map']), R)
             n[w > 0.5] = swap[w > 0.5]
         n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-9)
         mi.Bitmap(n.astype(np.float32)).write(a.out + '/normal.exr')
         m['normal_map'] = 'normal.exr'
+        if space != 'world':
+            m['normal_map_space'] = space
     json.dump(m, open(a.out + '/material.json', 'w'), indent=1)
 
 

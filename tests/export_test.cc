@@ -8,9 +8,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <nlohmann/json.hpp>
 
 #include "atlas/atlas.h"
+#include "core/rng.h"
 #include "brdf/fresnel.h"
 #include "core/error.h"
 #include "export/directions.h"
@@ -417,6 +419,49 @@ TEST(MitsubaExport, WritesSceneFilesWithExactTextureSums) {
   fs::remove_all(dir);
 }
 
+
+// The same normals as a world-space and as a tangent-space map (material.json
+// normal_map_space) export to the same textures: Mitsuba's `normalmap` and
+// glTF's normalTexture are tangent space, so the tangent map goes to Mitsuba
+// as it is (remapped to 0.5 n + 0.5), the world one converted at the texel
+// centres; glTF converts both to its vertex-tangent frame.
+TEST(NormalMapExport, WorldAndTangentMapsGiveTheSameTextures) {
+  Material world = TwoMaterialSphere();
+  const Atlas atlas = BuildAtlas(world.mesh, world.width, world.height);
+  world.normal_map = Image(world.width, world.height, 3, 0.0f);
+  Material tangent = world;
+  tangent.normal_map_space = NormalMapSpace::kTangent;
+  Rng rng(5);
+  std::normal_distribution<double> g(0.0, 0.25);
+  for (const Texel& t : atlas.texels) {
+    const Frame f = Frame::FromNormalTangent(t.normal, t.tangent);
+    const Vec3 nw = (t.normal + g(rng) * f.t + g(rng) * f.b).normalized();
+    const Vec3 vt = MapValueFromNormal(nw, NormalMapSpace::kTangent, t.normal, t.tangent);
+    for (int c = 0; c < 3; ++c) world.normal_map.at(t.x, t.y, c) = float(nw[c]), tangent.normal_map.at(t.x, t.y, c) = float(vt[c]);
+  }
+  const std::string dw = TempDir("nm_world"), dt = TempDir("nm_tangent");
+  MitsubaExportOptions mo;
+  ExportMitsuba(world, nullptr, mo, dw);
+  ExportMitsuba(tangent, nullptr, mo, dt);
+  EXPECT_NE(ReadFileBytes(dt + "/object.xml").find("<bsdf type=\"normalmap\""), std::string::npos);
+  const Image mw = ReadImage(dw + "/textures/normal.exr"), mt = ReadImage(dt + "/textures/normal.exr");
+  for (const Texel& t : atlas.texels)
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(mt.at(t.x, t.y, c), 0.5 * tangent.normal_map.at(t.x, t.y, c) + 0.5, 1e-6);
+      EXPECT_NEAR(mw.at(t.x, t.y, c), mt.at(t.x, t.y, c), 1e-5) << t.x << ", " << t.y;
+    }
+  GltfExportOptions go;
+  ExportGltf(world, go, dw);
+  ExportGltf(tangent, go, dt);
+  const Image gw = ReadImage(dw + "/normal.png"), gt = ReadImage(dt + "/normal.png");
+  ASSERT_EQ(gw.pixels.size(), gt.pixels.size());
+  for (size_t i = 0; i < gw.pixels.size(); ++i) EXPECT_NEAR(gw.pixels[i], gt.pixels[i], 1.01 / 255) << i;
+  const nlohmann::json model = nlohmann::json::parse(ReadFileBytes(dt + "/model.gltf"));
+  EXPECT_TRUE(model["meshes"][0]["primitives"][0]["attributes"].contains("TANGENT"));
+  EXPECT_TRUE(model["materials"][0].contains("normalTexture"));
+  fs::remove_all(dw);
+  fs::remove_all(dt);
+}
 
 TEST(MitsubaExport, MapsConductorsAndCoatsToTheirPlugins) {
   // Three basis materials: gold (exact index), an F82 conductor and a coat.

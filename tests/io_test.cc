@@ -595,6 +595,29 @@ TEST(Material, RoundTrip) {
   EXPECT_EQ(entries, 1);
 }
 
+// "normal_map_space": tangent round-trips; world (the default) is not written,
+// so such folders read the same in programs that predate the field; absent
+// reads as world.
+TEST(Material, NormalMapSpaceRoundTripsAndWorldIsTheDefault) {
+  TempDir dir;
+  Material a = MakeMaterial();
+  a.normal_map_space = NormalMapSpace::kTangent;
+  SaveMaterial(a, dir / "t");
+  EXPECT_EQ(ReadJsonFile(dir / "t/material.json")["normal_map_space"], "tangent");
+  const Material b = LoadMaterial(dir / "t");
+  EXPECT_EQ(b.normal_map_space, NormalMapSpace::kTangent);
+  EXPECT_EQ(b.normal_map.pixels, a.normal_map.pixels);
+  a.normal_map_space = NormalMapSpace::kWorld;
+  SaveMaterial(a, dir / "w");
+  EXPECT_FALSE(ReadJsonFile(dir / "w/material.json").contains("normal_map_space"));
+  EXPECT_EQ(LoadMaterial(dir / "w").normal_map_space, NormalMapSpace::kWorld);
+  // Written explicitly as "world" it reads as world too.
+  json j = ReadJsonFile(dir / "w/material.json");
+  j["normal_map_space"] = "world";
+  WriteText(dir / "w/material.json", j.dump());
+  EXPECT_EQ(LoadMaterial(dir / "w").normal_map_space, NormalMapSpace::kWorld);
+}
+
 TEST(Material, ErrorsNameTheField) {
   TempDir dir;
   SaveMaterial(MakeMaterial(), dir / "m");
@@ -617,6 +640,11 @@ TEST(Material, ErrorsNameTheField) {
       {[](json& j) { j["resolution"] = {6}; }, "resolution: expected array of 2 numbers"},
       {[](json& j) { j["confidence"] = "normal.exr"; }, "confidence: "},
       {[](json& j) { j["mesh"] = "none.obj"; }, "mesh: "},
+      {[](json& j) { j["normal_map_space"] = "object"; },
+       "normal_map_space: expected \"world\" or \"tangent\", got \"object\""},
+      {[](json& j) { j["normal_map_space"] = 1; }, "normal_map_space: expected string"},
+      {[](json& j) { j.erase("normal_map"), j["normal_map_space"] = "tangent"; },
+       "normal_map_space: given without a \"normal_map\""},
   };
   for (const Case& c : cases) {
     json j = good;

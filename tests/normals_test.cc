@@ -557,12 +557,64 @@ TEST(NormalMap, RoundTripsThroughTheMaterialLookup) {
   const Patch p = MakePatch(Lambert(), 4, 20.0, 3, 0.0, 6);
   Material m;
   m.width = m.height = 4;
-  m.normal_map = NormalMapImage(p.atlas, p.truth);
+  m.normal_map = NormalMapImage(p.atlas, p.truth, NormalMapSpace::kWorld);
   const NormalErrors e = CompareNormals(p.atlas, p.truth, m);
   EXPECT_LT(e.mean_deg, 1e-4);
   Material none;  // without a map the truth is the mesh normal
   const NormalErrors z = CompareNormals(p.atlas, std::vector<Vec3>(16, Vec3(0, 0, 1)), none);
   EXPECT_EQ(z.mean_deg, 0.0);
+}
+
+// On a flat mesh the tangent frame is the same everywhere, so a map written
+// in world space and the same normals written in tangent space give the same
+// normals at texel centres (MaterialNormal) and, interpolated, anywhere
+// (the shader's lookup); the plane is tilted and its UVs turned 30 deg so
+// that T, B are no axes of the world. A round trip through the map gives
+// the normals back.
+TEST(NormalMap, WorldAndTangentSpaceAgreeOnAFlatMesh) {
+  const Vec3 n = Vec3(0.3, -0.4, 0.866).normalized();
+  const Frame f = Frame::FromNormal(n);
+  Mesh mesh;
+  for (const Vec2& q : {Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)}) {
+    mesh.positions.push_back(0.5 * (q.x() * f.t + q.y() * f.b));
+    const double c = std::cos(kPi / 6), s = std::sin(kPi / 6);  // UVs turned 30 deg, inside [0, 1]
+    mesh.texcoords.push_back(Vec2(0.2 + 0.55 * (c * q.x() - s * q.y()) + 0.3, 0.1 + 0.55 * (s * q.x() + c * q.y())));
+  }
+  mesh.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3)};
+  mesh.face_uvs = mesh.faces;
+  mesh.ComputeNormals();
+  const int res = 16;
+  const Atlas atlas = BuildAtlas(mesh, res, res);
+  ASSERT_GT(atlas.texels.size(), 60u);
+  Rng rng(3);
+  std::normal_distribution<double> g(0.0, 0.3);
+  std::vector<Vec3> normals;
+  for (size_t t = 0; t < atlas.texels.size(); ++t) normals.push_back((n + g(rng) * f.t + g(rng) * f.b).normalized());
+  Material world, tangent;
+  world.width = world.height = tangent.width = tangent.height = res;
+  world.normal_map = NormalMapImage(atlas, normals, NormalMapSpace::kWorld);
+  tangent.normal_map = NormalMapImage(atlas, normals, NormalMapSpace::kTangent);
+  tangent.normal_map_space = NormalMapSpace::kTangent;
+  EXPECT_GT((Vec3(tangent.normal_map.at(atlas.texels[0].x, atlas.texels[0].y, 0), 0, 0) -
+             Vec3(world.normal_map.at(atlas.texels[0].x, atlas.texels[0].y, 0), 0, 0)).norm(), 1e-3);  // not the same numbers
+  for (size_t t = 0; t < atlas.texels.size(); ++t) {
+    const Vec3 a = MaterialNormal(world, atlas.texels[t], atlas), b = MaterialNormal(tangent, atlas.texels[t], atlas);
+    EXPECT_LT((a - normals[t]).norm(), 1e-6) << t;
+    EXPECT_LT((b - normals[t]).norm(), 1e-6) << t;
+  }
+  const Vec3 dpdu = mesh.FaceDpDu(0);
+  std::uniform_real_distribution<double> u(2.0, res - 2.0);
+  for (int i = 0; i < 200; ++i) {
+    const double x = u(rng), y = u(rng);
+    Vec3 vw, vt;
+    for (int c = 0; c < 3; ++c) vw[c] = world.normal_map.Bilinear(x, y, c), vt[c] = tangent.normal_map.Bilinear(x, y, c);
+    const Vec3 a = NormalFromMapValue(vw, NormalMapSpace::kWorld, n, dpdu);
+    const Vec3 b = NormalFromMapValue(vt, NormalMapSpace::kTangent, n, dpdu);
+    EXPECT_LT((a - b).norm(), 1e-6) << x << ", " << y;
+  }
+  // Zero texels (outside the atlas) mean the mesh normal in both spaces.
+  EXPECT_EQ(NormalFromMapValue(Vec3::Zero(), NormalMapSpace::kTangent, n, dpdu), n);
+  EXPECT_EQ(NormalFromMapValue(Vec3::Zero(), NormalMapSpace::kWorld, n, dpdu), n);
 }
 
 }  // namespace

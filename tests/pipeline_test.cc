@@ -214,6 +214,25 @@ TEST(NormalStage, RefinementFollowsAMergeOfTwoMaterials) {
 // first refinement lowers some material's held-out error by the given share
 // (relative, on squared errors), even if the whole is rejected; not when
 // every material gets worse or gains less (captures without bumps).
+// The final photo check chooses among three renders (normal_stage.h): the
+// bunny scan's numbers keep the refined materials without their map, the
+// bump-mapped default capture's keep the map, and neither 1 % below the
+// clustering's error keeps the clustering's estimate.
+TEST(NormalStage, PhotoCheckChoosesTheLowestOfThreeRenders) {
+  PhotoCheck pc;
+  pc.photos = 4;
+  pc.error_without_map = 132.4, pc.error_with_map = 114.2, pc.error_refined_no_map = 92.8;  // bunny scan
+  EXPECT_EQ(ChooseOnPhotos(pc, 0.01), PhotoChoice::kRefinedWithoutMap);
+  pc.error_without_map = 1456.3, pc.error_with_map = 578.8, pc.error_refined_no_map = 2394.2;  // default_bump
+  EXPECT_EQ(ChooseOnPhotos(pc, 0.01), PhotoChoice::kRefinedWithMap);
+  pc.error_without_map = 100, pc.error_with_map = 99.5, pc.error_refined_no_map = 99.8;
+  EXPECT_EQ(ChooseOnPhotos(pc, 0.01), PhotoChoice::kMeshNormals);
+  pc.error_with_map = pc.error_refined_no_map = 90;  // a tie keeps the map
+  EXPECT_EQ(ChooseOnPhotos(pc, 0.01), PhotoChoice::kRefinedWithMap);
+  pc.photos = 0;
+  EXPECT_EQ(ChooseOnPhotos(pc, 0.01), PhotoChoice::kRefinedWithMap);
+}
+
 TEST(NormalStage, BootstrapStartsWhenSomeMaterialImproves) {
   NormalRefinement nr;
   nr.heldout_rmse_mesh_by_material = {0.174, 0.0151, 0.0091};

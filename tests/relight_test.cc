@@ -7,6 +7,7 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "atlas/atlas.h"
 #include "core/error.h"
 #include "raytrace/sphere_mesh.h"
 #include "relight/relight.h"
@@ -153,6 +154,79 @@ TEST(Relight, ShadesWithTheNormalsOfTheMeshFile) {
       ++n;
     }
   EXPECT_GT(n, 1000);
+}
+
+// A unit sphere's front, 120 x 120 deg in latitude and longitude, as an n x n
+// grid of quads with the grid's texture coordinates and exact normals.
+Mesh SpherePatch(int n) {
+  Mesh m;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) {
+      const double th = kPi * (30.0 + 120.0 * i / n) / 180, ph = kPi * (-60.0 + 120.0 * j / n) / 180;
+      m.positions.emplace_back(std::sin(th) * std::sin(ph), std::cos(th), std::sin(th) * std::cos(ph));
+      m.texcoords.emplace_back(double(j) / n, 1.0 - double(i) / n);
+    }
+  const auto id = [&](int i, int j) { return i * (n + 1) + j; };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      m.faces.emplace_back(id(i, j), id(i + 1, j), id(i, j + 1));
+      m.faces.emplace_back(id(i, j + 1), id(i + 1, j), id(i + 1, j + 1));
+    }
+  m.face_uvs = m.faces;
+  m.normals = m.positions;
+  return m;
+}
+
+// A tangent-space map is applied in the frame of the shading point (io/
+// normal_map_space.h): on a coarse sphere whose normal turns ~20 deg within
+// one texel, a tangent map of (0, 0, 1) renders exactly the mesh normals,
+// while a world map of the same normals (the texel centres' mesh normals, as
+// a map refined to "no change" was written before normal_map_space) holds
+// each texel centre's normal across the texel and shades it visibly wrong.
+TEST(Relight, TangentNormalMapKeepsTheMeshsTurnWithinATexel) {
+  const int res = 6;  // 6 x 6 texels over 120 x 120 deg of a unit sphere: 20 deg per texel
+  const Mesh mesh = SpherePatch(24);
+  Material plain = UniformMaterial(mesh, "cook_torrance-ggx-smith-schlick", {});
+  plain.width = plain.height = res;
+  plain.weights = {Image(res, res, 3, 1.0f)};
+  const Atlas atlas = BuildAtlas(mesh, res, res);
+  ASSERT_EQ(atlas.texels.size(), size_t(res * res));
+  double max_turn = 0;  // largest angle between a texel's normal and its neighbour's: the turn per texel
+  for (const Texel& a : atlas.texels)
+    if (a.x + 1 < res && atlas.At(a.x + 1, a.y) >= 0)
+      max_turn = std::max(max_turn, std::acos(std::min(1.0, a.normal.dot(atlas.texels[atlas.At(a.x + 1, a.y)].normal))));
+  EXPECT_GT(max_turn * 180 / kPi, 15.0);
+  Material tangent = plain, world = plain;
+  tangent.normal_map = world.normal_map = Image(res, res, 3, 0.0f);
+  tangent.normal_map_space = NormalMapSpace::kTangent;
+  for (const Texel& t : atlas.texels) {
+    const Vec3 vt = MapValueFromNormal(t.normal, NormalMapSpace::kTangent, t.normal, t.tangent);
+    const Vec3 vw = MapValueFromNormal(t.normal, NormalMapSpace::kWorld, t.normal, t.tangent);
+    for (int c = 0; c < 3; ++c) tangent.normal_map.at(t.x, t.y, c) = float(vt[c]), world.normal_map.at(t.x, t.y, c) = float(vw[c]);
+  }
+  for (const Texel& t : atlas.texels) EXPECT_NEAR(tangent.normal_map.at(t.x, t.y, 2), 1.0, 1e-12);
+  const Scene s = OneView(Vec3(0.4, 0.5, 2.5), PointLight(Vec3(1.5, 2.0, 2.0), 5.0));
+  const RenderedView ref = RenderFirstView(mesh, plain, s);
+  const RenderedView vt = RenderFirstView(mesh, tangent, s);
+  const RenderedView vw = RenderFirstView(mesh, world, s);
+  double max_t = 0, max_w = 0, sum_w = 0, sum_ref = 0;
+  int n = 0;
+  for (int y = 0; y < ref.color.height; ++y)
+    for (int x = 0; x < ref.color.width; ++x)
+      if (ref.mask.at(x, y, 0) > 0)
+        for (int c = 0; c < 3; ++c) {
+          max_t = std::max(max_t, double(std::abs(vt.color.at(x, y, c) - ref.color.at(x, y, c))));
+          max_w = std::max(max_w, double(std::abs(vw.color.at(x, y, c) - ref.color.at(x, y, c))));
+          sum_w += std::abs(vw.color.at(x, y, c) - ref.color.at(x, y, c));
+          sum_ref += ref.color.at(x, y, c), ++n;
+        }
+  ASSERT_GT(n, 3000);
+  const double mean = sum_ref / n;
+  std::printf("turn per texel %.1f deg; |difference| from the mesh-normal render: tangent map max %.2e, world map "
+              "max %.2e, mean %.2e (mean radiance %.3f)\n", max_turn * 180 / kPi, max_t, max_w, sum_w / n, mean);
+  EXPECT_LT(max_t, 1e-6 * mean);
+  EXPECT_GT(max_w, 0.1 * mean);
+  EXPECT_GT(sum_w / n, 0.002 * mean);
 }
 
 TEST(Relight, HardShadowBehindABlocker) {

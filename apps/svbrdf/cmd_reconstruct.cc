@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -49,6 +50,18 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "2 suits photos that integrate the pixel, e.g. real cameras, on scans whose normal turns within a pixel)");
   c->add_option("--max-footprint-turn", job->gather.max_footprint_turn_deg,
                 "reject samples whose pixel footprint spans more than this turn of the mesh normal (degrees; 0 = off)");
+  c->add_option("--max-lookup-contrast", job->gather.max_lookup_contrast,
+                "reject samples whose photo changes steeply within the bilinear lookup: (max - min) / (max + min)\n"
+                "of its four pixels above this (1 = off)");
+  c->add_option("--contrast-min-turn", job->gather.contrast_min_turn_deg,
+                "--max-lookup-contrast rejects only where the pixel footprint spans at least this turn of the mesh\n"
+                "normal (degrees; 0 = everywhere)");
+  c->add_option("--probe-rays", job->gather.probe_rays,
+                "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off)");
+  c->add_option("--max-unlit-share", job->gather.max_unlit_share,
+                "with --probe-rays: reject samples whose footprint is unlit beyond this share (1 = off)");
+  c->add_option("--max-probe-foreign-share", job->gather.max_probe_foreign_share,
+                "with --probe-rays: reject samples whose footprint sees another surface beyond this share (1 = off)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")
@@ -67,6 +80,11 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--normal-bootstrap-rounds", job->alternation.bootstrap_rounds,
                 "when refined normals lower some material's held-out error but are not kept: normals <-> materials\n"
                 "rounds from normals on every texel, kept if the held-out error drops (0 = off)");
+  c->add_option("--normal-map-space", job->normal_map_space,
+                "space of the written normal map: tangent (the mesh's turn within a texel is kept) or world (the\n"
+                "texel centre's normal holds across the texel; the format before material.json's normal_map_space)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, NormalMapSpace>{{"tangent", NormalMapSpace::kTangent}, {"world", NormalMapSpace::kWorld}}));
   c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");

@@ -82,8 +82,10 @@ SplitMesh Split(const Mesh& mesh, bool with_tangents) {
   return s;
 }
 
-// World-space normal map -> glTF tangent-space normal texture (0.5 n + 0.5),
-// in the frame a viewer interpolates from the vertex normals and tangents.
+// Normal map -> glTF tangent-space normal texture (0.5 n + 0.5), in the frame
+// a viewer interpolates from the vertex normals and TANGENTs (whose vertex
+// tangents are not our per-face dP/du: converted at the texel centres,
+// through the world normal that the map gives there in either space).
 Image TangentNormals(const Material& m, const SplitMesh& s) {
   const Atlas atlas = BuildAtlas(m.mesh, m.width, m.height);
   Image out(m.width, m.height, 3, 0.5f);
@@ -104,9 +106,9 @@ Image TangentNormals(const Material& m, const SplitMesh& s) {
     n.normalize();
     tan = (tan - n * n.dot(tan)).normalized();
     const Vec3 bit = n.cross(tan) * (w < 0 ? -1.0 : 1.0);
-    Vec3 nw(m.normal_map.at(t.x, t.y, 0), m.normal_map.at(t.x, t.y, 1), m.normal_map.at(t.x, t.y, 2));
-    if (!(nw.squaredNorm() > 1e-12) || !tan.allFinite()) continue;
-    nw.normalize();
+    const Vec3 value(m.normal_map.at(t.x, t.y, 0), m.normal_map.at(t.x, t.y, 1), m.normal_map.at(t.x, t.y, 2));
+    if (!(value.squaredNorm() > 1e-12) || !tan.allFinite()) continue;
+    const Vec3 nw = NormalFromMapValue(value, m.normal_map_space, t.normal, t.tangent);
     const Vec3 local(nw.dot(tan), nw.dot(bit), nw.dot(n));
     for (int c = 0; c < 3; ++c) out.at(t.x, t.y, c) = float(0.5 * local[c] + 0.5);
   }

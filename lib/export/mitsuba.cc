@@ -112,20 +112,31 @@ json LobeReport(const NearestForm& f) {
   return j;
 }
 
-// World-space normal map -> Mitsuba tangent-space normal map, encoded 0.5 n + 0.5.
+// Normal map -> Mitsuba's tangent-space `normalmap`, encoded 0.5 n + 0.5.
+// Mitsuba's frame is ours (normal_map_space.h): N its interpolated shading
+// normal, T its dp_du made orthogonal to N, B = N x T (its OBJ loader flips
+// v, which negates dP/dv, not dP/du). So a tangent-space map is copied
+// (and keeps the mesh's turn within a texel in Mitsuba as in relight); a
+// world-space one is converted at the texel centres.
 Image TangentSpaceNormals(const Material& m) {
-  const Atlas atlas = BuildAtlas(m.mesh, m.width, m.height);
   Image out(m.width, m.height, 3, 0.5f);
   for (int y = 0; y < m.height; ++y)
     for (int x = 0; x < m.width; ++x) out.at(x, y, 2) = 1.0f;
+  auto put = [&](int x, int y, const Vec3& local) {
+    for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(0.5 * local[c] + 0.5);
+  };
+  auto value = [&](int x, int y) { return Vec3(m.normal_map.at(x, y, 0), m.normal_map.at(x, y, 1), m.normal_map.at(x, y, 2)); };
+  if (m.normal_map_space == NormalMapSpace::kTangent) {
+    for (int y = 0; y < m.height; ++y)
+      for (int x = 0; x < m.width; ++x)
+        if (value(x, y).squaredNorm() > 1e-12) put(x, y, value(x, y).normalized());
+    return out;
+  }
+  const Atlas atlas = BuildAtlas(m.mesh, m.width, m.height);
   for (const Texel& t : atlas.texels) {
-    const Vec3 n = t.normal;
-    Vec3 s = t.tangent - n * n.dot(t.tangent);
-    const Frame fr = s.squaredNorm() > 1e-16 ? Frame{s.normalized(), n.cross(s.normalized()), n} : Frame::FromNormal(n);
-    Vec3 w(m.normal_map.at(t.x, t.y, 0), m.normal_map.at(t.x, t.y, 1), m.normal_map.at(t.x, t.y, 2));
+    const Vec3 w = value(t.x, t.y);
     if (!(w.squaredNorm() > 1e-12)) continue;
-    const Vec3 local = fr.ToLocal(w.normalized());
-    for (int c = 0; c < 3; ++c) out.at(t.x, t.y, c) = float(0.5 * local[c] + 0.5);
+    put(t.x, t.y, MapValueFromNormal(w, NormalMapSpace::kTangent, t.normal, t.tangent));
   }
   return out;
 }

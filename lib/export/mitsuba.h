@@ -34,9 +34,10 @@
 // (weight (M-i-1)/(M-i) at level i, i.e. the average of the parts) with every
 // texture multiplied by M. This equals f_c(x) = sum_k w_k,c(x) f_k,c per
 // channel and texel, up to the per-model NearestForm error.
-// With a normal map, the sum is wrapped in Mitsuba's `normalmap` BSDF; the
-// world-space normals are converted to the tangent frame Mitsuba builds from
-// the interpolated normal and dP/du (s = dP/du orthogonalised, t = n x s).
+// With a normal map, the sum is wrapped in Mitsuba's `normalmap` BSDF, whose
+// tangent frame (interpolated normal, s = dP/du orthogonalised, t = n x s) is
+// our tangent space (io/normal_map_space.h): a tangent map is copied, a
+// world-space one converted at the texel centres.
 #pragma once
 #include <nlohmann/json.hpp>
 #include <string>

@@ -29,6 +29,16 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: max foreign share must be in [0, 1], got ", max_foreign_share));
   if (!(border_texel_max_offset >= 0 && std::isfinite(border_texel_max_offset)))
     throw Error(Msg("gather: border texel max offset must be finite and >= 0 texels, got ", border_texel_max_offset));
+  if (probe_rays < 0 || probe_rays > 8)
+    throw Error(Msg("gather: probe rays must be in [0, 8] per pixel side, got ", probe_rays));
+  if (!(max_unlit_share >= 0 && max_unlit_share <= 1))
+    throw Error(Msg("gather: max unlit share must be in [0, 1], got ", max_unlit_share));
+  if (!(max_probe_foreign_share >= 0 && max_probe_foreign_share <= 1))
+    throw Error(Msg("gather: max probe foreign share must be in [0, 1], got ", max_probe_foreign_share));
+  if (!(contrast_min_turn_deg >= 0 && contrast_min_turn_deg <= 180))
+    throw Error(Msg("gather: contrast min turn must be in [0, 180] degrees, got ", contrast_min_turn_deg));
+  if (!(max_lookup_contrast >= 0 && max_lookup_contrast <= 1))
+    throw Error(Msg("gather: max lookup contrast must be in [0, 1], got ", max_lookup_contrast));
   if (max_atlas_size < 16 || max_atlas_size > 16384)
     throw Error(Msg("gather: max atlas size must be in [16, 16384], got ", max_atlas_size));
 }
@@ -40,6 +50,9 @@ std::string GatherStats::Report(bool with_warnings) const {
      << " occluded, " << outside_mask << " outside mask, " << unlit << " unlit/grazing light, " << shadowed
      << " shadowed, " << saturated << " saturated, " << invalid << " non-finite/negative pixel";
   if (turning > 0) os << ", " << turning << " normal turning within the pixel";
+  if (probe_foreign > 0) os << ", " << probe_foreign << " footprint on another surface";
+  if (probe_unlit > 0) os << ", " << probe_unlit << " footprint partly unlit";
+  if (contrast > 0) os << ", " << contrast << " photo changing steeply within the lookup";
   if (with_warnings)
     for (const std::string& w : warnings) os << "\n  warning: " << w;
   return os.str();
@@ -47,7 +60,7 @@ std::string GatherStats::Report(bool with_warnings) const {
 
 namespace {
 
-enum Reason : uint8_t { kKept, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid, kTurning };
+enum Reason : uint8_t { kKept, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid, kTurning, kProbeUnlit, kProbeForeign, kContrast };
 
 // How fast the smooth normal turns on texel t's triangle: the largest angle
 // between two of its vertex normals over the length of its longest edge (rad/m).
@@ -67,7 +80,55 @@ struct Record {
   uint8_t reason = kOutsideImage;
   bool signal = false;  // a channel above the noise floor
   float wi[3], wo[3], geom, y[3];
+  SampleProbe probe;
 };
+
+// GatherOptions::probe_rays: n x n stratified rays through each of the four
+// pixels of the bilinear lookup at (px, py), weighted like the lookup. A ray
+// that misses or hits farther than `tolerance` from x is foreign; on the
+// others the light is tested as at the texel centre (facing, shadow ray from
+// the hit, offset along its geometric normal).
+SampleProbe ProbeFootprint(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
+                           const Light& light, const Vec3& x, const Vec3& n, double tolerance, double eps, double px,
+                           double py, int rays) {
+  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
+  const int x0 = static_cast<int>(std::floor(px - 0.5)), y0 = static_cast<int>(std::floor(py - 0.5));
+  double foreign = 0, unlit = 0, total = 0, min_cos = 1;
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) / (rays * rays);
+      if (w <= 0) continue;
+      for (int sy = 0; sy < rays; ++sy)
+        for (int sx = 0; sx < rays; ++sx) {
+          total += w;
+          const Vec2 p(x0 + dx + (sx + 0.5) / rays, y0 + dy + (sy + 0.5) / rays);
+          Hit h;
+          if (!tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h)) {
+            foreign += w;
+            continue;
+          }
+          const Vec3 q = tracer.Position(h);
+          if ((q - x).norm() > tolerance) {
+            foreign += w;
+            continue;
+          }
+          const Vec3 ns = tracer.ShadingNormal(h);
+          Vec3 ng = h.geometric_normal;
+          if (ng.dot(ns) < 0) ng = -ng;
+          min_cos = std::min(min_cos, ns.dot(n));
+          const LightSample ls = SampleLight(light, q, world_from_cam.rotation, eye);
+          if (!(ns.dot(ls.wi) > 0) ||
+              tracer.Occluded(q + ng * eps, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * eps))
+            unlit += w;
+        }
+    }
+  SampleProbe out;
+  if (!(total > 0)) return out;
+  out.foreign = static_cast<float>(foreign / total);
+  out.unlit = static_cast<float>(total - foreign > 0 ? unlit / (total - foreign) : 0.0);
+  out.spread_deg = static_cast<float>(std::acos(std::clamp(min_cos, -1.0, 1.0)) * 180 / kPi);
+  return out;
+}
 
 // The mean shading normal seen by the bilinear lookup at continuous pixel
 // (px, py): n x n stratified rays through each of its four pixels, weighted
@@ -166,9 +227,10 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   const bool no_border = out.made_uvs && !options.border_texel_samples;
   const int footprint_rays = options.footprint_rays;
   std::vector<double> turn_rate;
-  if (options.max_footprint_turn_deg > 0)
+  if (options.max_footprint_turn_deg > 0 || (options.max_lookup_contrast < 1 && options.contrast_min_turn_deg > 0))
     for (const Texel& t : atlas.texels) turn_rate.push_back(NormalTurnRate(out.mesh, t));
   const double max_turn = options.max_footprint_turn_deg * kPi / 180;
+  const double min_contrast_turn = options.contrast_min_turn_deg * kPi / 180;
 
   // Kept samples per image (texel, record); one full-size scratch buffer is
   // reused across images, so memory grows with kept samples, not texels x views.
@@ -219,8 +281,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       const double dist = to_eye.norm();
       to_eye /= dist;
       if (n.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
-      if (!turn_rate.empty() && turn_rate[t] * dist / cam.fx() / n.dot(to_eye) > max_turn)
-        return void(r.reason = kTurning);
+      const double footprint_turn = turn_rate.empty() ? 0.0 : turn_rate[t] * dist / cam.fx() / n.dot(to_eye);
+      if (options.max_footprint_turn_deg > 0 && footprint_turn > max_turn) return void(r.reason = kTurning);
       if (tracer.Occluded(x + n * eps, to_eye, 0.0, dist - 2 * eps)) return void(r.reason = kOccluded);
       const int x0 = static_cast<int>(std::floor(px.x() - 0.5)), y0 = static_cast<int>(std::floor(px.y() - 0.5));
       if (!e.mask.empty()) {
@@ -276,6 +338,25 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       float peak = 0;
       for (int c = 0; c < 3; ++c) peak = std::max(peak, img.Bilinear(px.x(), px.y(), std::min(c, img.channels - 1)));
       r.signal = peak > options.noise_floor;
+      double lo = 1e300, hi = 0;
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          double v = 0;
+          for (int c = 0; c < img.channels; ++c) v += img.at(x0 + dx, y0 + dy, c) / img.channels;
+          lo = std::min(lo, v), hi = std::max(hi, v);
+        }
+      const double contrast = (hi - lo) / (hi + lo + 2 * options.noise_floor);
+      if (contrast > options.max_lookup_contrast && footprint_turn >= min_contrast_turn)
+        return void(r.reason = kContrast);
+      r.probe.contrast = static_cast<float>(contrast);
+      if (options.probe_rays > 0) {
+        const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
+        r.probe = ProbeFootprint(tracer, cam, world_from_cam, eye, light, x, n, tolerance, eps, px.x(), px.y(),
+                                 options.probe_rays);
+
+        if (r.probe.foreign > options.max_probe_foreign_share) return void(r.reason = kProbeForeign);
+        if (r.probe.unlit > options.max_unlit_share) return void(r.reason = kProbeUnlit);
+      }
       r.reason = kKept;
     }, 256);
     long kept = 0, signal = 0;
@@ -295,6 +376,9 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         case kSaturated: ++st.saturated; break;
         case kInvalid: ++st.invalid; break;
         case kTurning: ++st.turning; break;
+        case kProbeUnlit: ++st.probe_unlit; break;
+        case kProbeForeign: ++st.probe_foreign; break;
+        case kContrast: ++st.contrast; break;
       }
     }
     if (kept > 0 && signal == 0)
@@ -334,9 +418,11 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   ss.geom.resize(st.kept);
   for (int k = 0; k < 3; ++k) ss.wi[k].resize(st.kept), ss.wo[k].resize(st.kept), ss.y[k].resize(st.kept);
   std::vector<int64_t> cursor(ss.texel_begin.begin(), ss.texel_begin.end() - 1);
+  if (options.probe_rays > 0) out.probes.resize(st.kept);
   for (size_t i = 0; i < per_image.size(); ++i)
     for (const auto& [t, r] : per_image[i]) {
       const int64_t s = cursor[t]++;
+      if (options.probe_rays > 0) out.probes[s] = r.probe;
       ss.texel[s] = t;
       ss.image[s] = static_cast<int32_t>(i);
       ss.geom[s] = r.geom;

@@ -57,6 +57,36 @@ struct GatherOptions {
   // the photo integrates a spread of normals there, which the texel-centre
   // frame cannot describe. 0 = off.
   double max_footprint_turn_deg = 0.0;
+  // Footprint probe: n x n rays through each pixel of a kept sample's
+  // bilinear lookup (weighted like the lookup) measure what the texel-centre
+  // sample cannot see: the share of the footprint on another surface or the
+  // background (an occluding edge, a silhouette), the share of the
+  // footprint's own surface that the light does not reach (a shadow boundary
+  // or the terminator in the pixel) and the largest angle between the
+  // footprint's normals and the texel's. Stored per sample in
+  // GatherResult::probes (diagnostics, bench tools); `max_unlit_share` and
+  // `max_probe_foreign_share` reject on them. 0 = off (no extra rays).
+  // Cost: 4 n^2 camera rays and up to as many shadow rays per kept sample.
+  int probe_rays = 0;
+  // Lookup contrast: (max - min) / (max + min + 2 noise_floor) of the mean
+  // channel over the four pixels of a sample's bilinear lookup. A steep
+  // change of the photo within the lookup (a highlight on a normal that
+  // turns within the pixel, a shadow boundary, an occluding edge) means the
+  // interpolated value is not the texel centre's. Samples above it are
+  // rejected when their pixel footprint also spans at least
+  // `contrast_min_turn_deg` of the mesh normal's turn (see
+  // max_footprint_turn_deg; 0 = everywhere): where the mesh is flat at the
+  // pixel's scale the change is the material's or a normal map's own signal
+  // (bump captures lose 1.7 dB without that condition). 1 = off (the
+  // contrast is < 1), the default: 0.3 gains the Mitsuba bunny scan
+  // 1.2-1.7 dB over three seeds but splits the tiny preset's five materials
+  // into four (38.9 instead of 47.5 dB held-out) and, at a 6 deg condition,
+  // costs the bunny 2.4 dB (bench_results/independent.md, stop 18 "sample
+  // quality").
+  double max_lookup_contrast = 1.0;
+  double contrast_min_turn_deg = 3.0;
+  double max_unlit_share = 1.0;          // reject above this unlit share of the footprint (1 = keep all)
+  double max_probe_foreign_share = 1.0;  // reject above this foreign share of the footprint (1 = keep all)
   // Generated chart atlases (meshes without UVs): texels outside every UV
   // triangle (the dilation ring around each chart, and texels claimed by
   // triangles smaller than a texel) measure a point clamped onto a chart
@@ -94,10 +124,20 @@ struct GatherStats {
   long outside_image = 0, back_facing = 0, occluded = 0, outside_mask = 0, unlit = 0, shadowed = 0,
        saturated = 0, invalid = 0;
   long turning = 0;  // normal turns too much within the pixel footprint (GatherOptions::max_footprint_turn_deg)
+  long probe_unlit = 0, probe_foreign = 0;
+  long contrast = 0;  // photo changes too steeply within the lookup (GatherOptions::max_lookup_contrast)  // rejected by the footprint probe (GatherOptions::probe_rays)
   long signal = 0;  // kept samples with a channel above the noise floor
   std::vector<long> kept_per_image;
   std::vector<std::string> warnings;  // e.g. views without signal
   std::string Report(bool with_warnings = true) const;
+};
+
+// What the footprint probe saw for one sample (GatherOptions::probe_rays).
+struct SampleProbe {
+  float foreign = 0;  // share of the lookup on another surface or the background
+  float unlit = 0;    // share of the lookup's own surface not lit (shadowed or facing away)
+  float spread_deg = 0;  // largest angle between a footprint normal and the texel's
+  float contrast = 0;    // the lookup's contrast (GatherOptions::max_lookup_contrast)
 };
 
 struct GatherResult {
@@ -105,6 +145,7 @@ struct GatherResult {
   bool made_uvs = false;
   Atlas atlas;
   SampleSet samples;
+  std::vector<SampleProbe> probes;  // per sample, in sample order; empty without GatherOptions::probe_rays
   GatherStats stats;
 };
 

@@ -24,4 +24,22 @@ void SampleSet::Push(int32_t t, int32_t img, const float wi_[3], const float wo_
   }
 }
 
+SampleSet KeepSamples(const SampleSet& samples, const std::vector<char>& keep) {
+  SampleSet out;
+  out.num_texels = samples.num_texels;
+  out.texel_begin.assign(samples.num_texels + 1, 0);
+  out.Reserve(samples.size());
+  for (int t = 0; t < samples.num_texels; ++t) {
+    for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
+      if (!keep[s]) continue;
+      const float wi[3] = {samples.wi[0][s], samples.wi[1][s], samples.wi[2][s]};
+      const float wo[3] = {samples.wo[0][s], samples.wo[1][s], samples.wo[2][s]};
+      const float y[3] = {samples.y[0][s], samples.y[1][s], samples.y[2][s]};
+      out.Push(samples.texel[s], samples.image[s], wi, wo, samples.geom[s], y);
+    }
+    out.texel_begin[t + 1] = out.size();
+  }
+  return out;
+}
+
 }  // namespace svbrdf

@@ -28,4 +28,7 @@ struct SampleSet {
   void Push(int32_t t, int32_t img, const float wi_[3], const float wo_[3], float g, const float y_[3]);
 };
 
+// The samples s with keep[s] != 0 (keep.size() == samples.size()), still sorted by texel.
+SampleSet KeepSamples(const SampleSet& samples, const std::vector<char>& keep);
+
 }  // namespace svbrdf

@@ -3,7 +3,8 @@
 //    "basis": [{"name": "m0", "model": "lafortune", "label": "lafortune-2",
 //               "params": {"rd_r": 0.3, ...}}, ...],
 //    "weights": ["weights/m0.exr", ...],          // 3-channel EXR, one per basis material
-//    "normal_map": "normal.exr",                  // optional, world-space unit normals (RGB = xyz)
+//    "normal_map": "normal.exr",                  // optional, unit normals (RGB = xyz) in:
+//    "normal_map_space": "tangent",               // optional, "world" (absent) or "tangent" (io/normal_map_space.h)
 //    "confidence": "confidence.exr",              // optional, 1 channel
 //    "material_id": "material_id.png",            // optional, integer basis index per texel
 //    "info": {...}}                               // optional, free-form provenance
@@ -112,7 +113,8 @@ Material LoadMaterial(const std::string& dir) {
   const std::string file = (fs::path(dir) / "material.json").string();
   const json j = ReadJsonFile(file);
   const JsonField root(j, file);
-  root.AllowOnly({"format", "mesh", "resolution", "basis", "weights", "normal_map", "confidence", "material_id", "info"});
+  root.AllowOnly({"format", "mesh", "resolution", "basis", "weights", "normal_map", "normal_map_space", "confidence",
+                  "material_id", "info"});
   const std::string format = root.Get<std::string>("format");
   if (format != kMaterialFormat) root.FailAt("format", Msg("expected \"", kMaterialFormat, "\", got \"", format, "\""));
 
@@ -155,6 +157,12 @@ Material LoadMaterial(const std::string& dir) {
     }
   }
   LoadOptionalMap(root, dir, "normal_map", 3, m.width, m.height, false, &m.normal_map);
+  if (root.Has("normal_map_space")) {
+    const std::string space = root.Get<std::string>("normal_map_space");
+    if (!ParseNormalMapSpace(space, &m.normal_map_space))
+      root.FailAt("normal_map_space", Msg("expected \"world\" or \"tangent\", got \"", space, "\""));
+    if (!m.normal_map.width) root.FailAt("normal_map_space", "given without a \"normal_map\"");
+  }
   LoadOptionalMap(root, dir, "confidence", 1, m.width, m.height, false, &m.confidence);
   try {
     if (m.normal_map.width) CheckValues(m.normal_map, -1.001f, 1.001f, (fs::path(dir) / root.Get<std::string>("normal_map")).string());
@@ -201,6 +209,9 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
     if (m.normal_map.width) {
       WriteImage((tmp / "normal.exr").string(), m.normal_map, PixelFormat::kFloat);
       j["normal_map"] = "normal.exr";
+      // World maps leave the field out: such folders read as before in
+      // programs that predate it.
+      if (m.normal_map_space != NormalMapSpace::kWorld) j["normal_map_space"] = NormalMapSpaceName(m.normal_map_space);
     }
     if (m.confidence.width) {
       WriteImage((tmp / "confidence.exr").string(), m.confidence, PixelFormat::kFloat);

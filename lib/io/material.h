@@ -1,7 +1,8 @@
 // material.json, "svbrdf-material/1": a folder with a mesh (with the UVs the
 // maps use), basis materials (model + named parameters), one RGB weight map per
-// basis material, an optional world-space normal map, a confidence map and an
-// optional material-id map. See README "Material folder".
+// basis material, an optional normal map (world or tangent space:
+// io/normal_map_space.h), a confidence map and an optional material-id map.
+// See README "Material folder".
 #pragma once
 #include <nlohmann/json.hpp>
 #include <string>
@@ -10,6 +11,7 @@
 #include "brdf/model.h"
 #include "io/image.h"
 #include "io/mesh.h"
+#include "io/normal_map_space.h"
 
 namespace svbrdf {
 
@@ -26,7 +28,8 @@ struct Material {
   int width = 0, height = 0;     // texture resolution of all maps
   std::vector<BasisMaterial> basis;
   std::vector<Image> weights;    // one 3-channel map per basis material (per-channel mixing weights)
-  Image normal_map;              // 3 channels, world-space unit normals; empty (width 0) when absent
+  Image normal_map;              // 3 channels, unit normals in normal_map_space; empty (width 0) when absent
+  NormalMapSpace normal_map_space = NormalMapSpace::kWorld;  // material.json "normal_map_space" (absent = world)
   Image confidence;              // 1 channel in [0,1]; empty when absent
   Image material_id;             // 1 channel, integer ids (basis index); empty when absent
   nlohmann::json extra;          // free-form provenance (written as "info")

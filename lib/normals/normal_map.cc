@@ -5,10 +5,13 @@
 
 namespace svbrdf {
 
-Image NormalMapImage(const Atlas& atlas, const std::vector<Vec3>& normals) {
+Image NormalMapImage(const Atlas& atlas, const std::vector<Vec3>& normals, NormalMapSpace space) {
   Image img(atlas.width, atlas.height, 3, 0.0f);
-  for (size_t t = 0; t < atlas.texels.size() && t < normals.size(); ++t)
-    for (int c = 0; c < 3; ++c) img.at(atlas.texels[t].x, atlas.texels[t].y, c) = float(normals[t][c]);
+  for (size_t t = 0; t < atlas.texels.size() && t < normals.size(); ++t) {
+    const Texel& tx = atlas.texels[t];
+    const Vec3 v = space == NormalMapSpace::kWorld ? normals[t] : MapValueFromNormal(normals[t], space, tx.normal, tx.tangent);
+    for (int c = 0; c < 3; ++c) img.at(tx.x, tx.y, c) = float(v[c]);
+  }
   return img;
 }
 
@@ -19,7 +22,7 @@ Vec3 MaterialNormal(const Material& material, const Texel& texel, const Atlas& a
   const Vec2 p = UvToTexel(uv, material.normal_map.width, material.normal_map.height);
   Vec3 n;
   for (int c = 0; c < 3; ++c) n[c] = material.normal_map.Bilinear(p.x(), p.y(), c);
-  return n.squaredNorm() > 1e-12 ? Vec3(n.normalized()) : texel.normal;
+  return NormalFromMapValue(n, material.normal_map_space, texel.normal, texel.tangent);
 }
 
 namespace {

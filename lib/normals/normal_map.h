@@ -1,7 +1,8 @@
 // Normal maps for the material folder and their comparison with ground truth.
-// material.json's "normal_map" holds world-space unit normals, RGB = xyz
-// (README, material section); relight replaces the mesh's interpolated normal
-// by the bilinearly interpolated, renormalised map value.
+// material.json's "normal_map" holds unit normals, RGB = xyz, in world space
+// or in the tangent space of the shading point ("normal_map_space",
+// io/normal_map_space.h; README, material section); relight interpolates the
+// map bilinearly and applies it at the shading point.
 #pragma once
 #include <vector>
 
@@ -11,12 +12,14 @@
 
 namespace svbrdf {
 
-// Per-texel world-space normals into a W x H x 3 map (zero outside the atlas:
-// relight falls back to the mesh normal there).
-Image NormalMapImage(const Atlas& atlas, const std::vector<Vec3>& normals);
+// Per-texel world-space normals into a W x H x 3 map in `space` (tangent:
+// in the frame of the texel centre, texel normal and tangent; zero outside
+// the atlas: relight falls back to the mesh normal there).
+Image NormalMapImage(const Atlas& atlas, const std::vector<Vec3>& normals, NormalMapSpace space);
 
-// The shading normal a material gives a texel: its normal map at the texel's
-// uv (bilinear, renormalised) if it has one, else the texel's mesh normal.
+// The world-space shading normal a material gives a texel centre: its normal
+// map at the texel's uv (bilinear, in the texel's frame when tangent space,
+// renormalised) if it has one, else the texel's mesh normal.
 // `material` and `atlas` must share texture coordinates (same mesh UVs).
 Vec3 MaterialNormal(const Material& material, const Texel& texel, const Atlas& atlas);
 

@@ -70,7 +70,7 @@ double PhotoError(const Material& material, const Scene& scene, const std::vecto
 
 PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
-                                  int max_photos) {
+                                  NormalMapSpace map_space, int max_photos) {
   PhotoCheck out;
   const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
   std::vector<size_t> images;
@@ -80,10 +80,24 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
   if (images.empty()) return out;
   Material without = ToMaterial(before, g.atlas, g.mesh);
   Material with = ToMaterial(after, g.atlas, g.mesh);
-  with.normal_map = NormalMapImage(g.atlas, nr.normal);
+  // The map as reconstruct writes it: in a world-space map the texel
+  // centre's normal holds across the texel, a tangent-space one turns with
+  // the mesh (normal_map_space.h), and the photos see the difference.
+  with.normal_map = NormalMapImage(g.atlas, nr.normal, map_space);
+  with.normal_map_space = map_space;
   out.error_without_map = PhotoError(without, scene, images, eo.threads);
   out.error_with_map = PhotoError(with, scene, images, eo.threads);
+  with.normal_map = Image();
+  out.error_refined_no_map = PhotoError(with, scene, images, eo.threads);
   return out;
+}
+
+PhotoChoice ChooseOnPhotos(const PhotoCheck& pc, double min_improvement) {
+  if (pc.photos == 0) return PhotoChoice::kRefinedWithMap;
+  const bool map = pc.error_with_map <= pc.error_refined_no_map;
+  const double best = map ? pc.error_with_map : pc.error_refined_no_map;
+  if (!(best < (1.0 - min_improvement) * pc.error_without_map)) return PhotoChoice::kMeshNormals;
+  return map ? PhotoChoice::kRefinedWithMap : PhotoChoice::kRefinedWithoutMap;
 }
 
 bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement) {
@@ -130,7 +144,7 @@ void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinem
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
                                 SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene,
-                                const MergeOptions& merge, MergeReport* merged) {
+                                NormalMapSpace map_space, const MergeOptions& merge, MergeReport* merged) {
   ao.Check();
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
@@ -169,12 +183,14 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     timer->Start("normal map photo check");
     SvbrdfEstimate with = est;
     with.weights = nr.weights;
-    const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr);
+    const PhotoCheck pc = CheckNormalMapOnPhotos(*scene, g, eo, est, with, nr, map_space);
     const bool pass = PhotoCheckPasses(pc, no.min_improvement);
-    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
-                 pc.error_without_map, pc.error_with_map, pass ? "kept" : "not kept (mesh normals)");
+    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with (%g refined without "
+                 "the map): %s\n", pc.photos, pc.error_without_map, pc.error_with_map, pc.error_refined_no_map,
+                 pass ? "kept" : "not kept (mesh normals)");
     rounds->back()["photo_check"] = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
-                                     {"error_with_map", pc.error_with_map}, {"kept", pass}};
+                                     {"error_with_map", pc.error_with_map},
+                                     {"error_refined_no_map", pc.error_refined_no_map}, {"kept", pass}};
     if (!pass) return NormalRefinement();
   }
   // Normals <-> materials: materials fitted under the mesh normals are

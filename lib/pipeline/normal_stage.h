@@ -10,6 +10,7 @@
 #include "cluster/reconstruct.h"
 #include "core/progress.h"
 #include "gather/gather.h"
+#include "io/normal_map_space.h"
 #include "io/scene.h"
 #include "normals/refine.h"
 #include "pipeline/merge_stage.h"
@@ -62,6 +63,7 @@ struct NormalAlternationOptions {
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
                                 SvbrdfEstimate* est, nlohmann::json* rounds, const Scene* scene = nullptr,
+                                NormalMapSpace map_space = NormalMapSpace::kTangent,
                                 const MergeOptions& merge = MergeOptions(), MergeReport* merged = nullptr);
 
 // After `from` was merged into `into` (WithMaterialsMerged): the refinement's
@@ -70,24 +72,35 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
 void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinement* nr);
 
 // The photo check of a kept refinement: the clustering's estimate `before`
-// (mesh normals) and the stage's `after` with its normal map, each rendered
-// as relight renders it, against up to `max_photos` of the held-out photos
+// (mesh normals), the stage's `after` with its normal map (in `map_space`,
+// as reconstruct writes it) and `after` without the map, each rendered as
+// relight renders it, against up to `max_photos` of the held-out photos
 // (HeldOutImages of `eo`); squared error over the photos' masks, linear
-// radiance. Why: the normal map replaces the mesh's interpolated normal by
-// one bilinear value per texel, so wherever the mesh normal turns within a
-// texel (a scan) even a map of the mesh normals costs: on the Mitsuba bunny
-// 40.16 dB held-out without a map, 37.10 dB with a map of tilt 0, 35.92 dB
-// with refined normals that the sample-level decision kept (-4 % error
-// there). The sample-level decision cannot see this; the photos do.
+// radiance. Why: the sample-level decision scores samples at texel centres,
+// and relight shades every point between them. A world-space map holds the
+// texel centre's normal across the texel, so on a scan whose normal turns
+// within a texel even a map of the mesh normals costs (Mitsuba bunny 40.16
+// dB held-out without a map, 37.10 dB with a world map of tilt 0). A
+// tangent-space map keeps that turn, but the refined tilts still fit
+// samples that average the photo over a turning footprint; on the bunny the
+// refined materials and weights gain (41.66 dB) while their map loses
+// (39.34 dB), which only the third render shows.
 struct PhotoCheck {
-  double error_without_map = 0, error_with_map = 0;
+  double error_without_map = 0;  // `before`
+  double error_with_map = 0;     // `after` with its map
+  double error_refined_no_map = 0;  // `after` without the map
   int photos = 0;
 };
 PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
-                                  int max_photos = 4);
+                                  NormalMapSpace map_space = NormalMapSpace::kTangent, int max_photos = 4);
 // The map is kept when it lowers that error by `min_improvement` (relative), or there are no photos.
 bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement);
+// The final choice among the three (reconstruct, after the material rounds):
+// the lower of `after` with and without its map if it is `min_improvement`
+// below `before`, else `before`; the map on ties. No photos: with the map.
+enum class PhotoChoice { kMeshNormals, kRefinedWithoutMap, kRefinedWithMap };
+PhotoChoice ChooseOnPhotos(const PhotoCheck& pc, double min_improvement);
 
 // After a material round (materials refitted in the previous normals'
 // frames, normals refined again) with held-out error `round_rmse` against

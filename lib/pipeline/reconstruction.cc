@@ -56,7 +56,7 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
 // between mesh and true normals.
 nlohmann::json WriteNormalPictures(const Scene& scene, const GatherResult& g, const NormalRefinement& nr,
                                    const std::string& dir) {
-  Image rgb = NormalMapImage(g.atlas, nr.normal);
+  Image rgb = NormalMapImage(g.atlas, nr.normal, NormalMapSpace::kWorld);
   for (float& v : rgb.pixels) v = 0.5f * (v + 1.0f);
   WriteImage(dir + "/normals.png", rgb, PixelFormat::kUInt8, ColorSpace::kLinear);
   nlohmann::json out = {{"normal_map", "normals.png"}};
@@ -105,6 +105,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
 
   timer.Start("gather samples");
   GatherResult g = Gather(scene, job.gather);
+  if (job.after_gather) job.after_gather(g);
   std::fprintf(stderr, "  %s\n", g.stats.Report().c_str());
 
   timer.Start("fit + cluster");
@@ -126,22 +127,30 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
   MergeReport merge;  // the merge stage runs inside the normal stage, before its material rounds
   NormalRefinement nr = RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds,
-                                       &scene, job.merge, &merge);
+                                       &scene, job.normal_map_space, job.merge, &merge);
   nlohmann::json photo_check;
   if (nr.kept && no.mode == "on") {
     // The map as relight uses it, on held-out photos (normal_stage.h), after
     // the material rounds too (the stage checked the first refinement).
     timer.Start("normal map photo check");
-    const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr);
-    const bool keep = PhotoCheckPasses(pc, no.min_improvement);
-    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with: %s\n", pc.photos,
-                 pc.error_without_map, pc.error_with_map, keep ? "kept" : "not kept (mesh normals, clustering's estimate)");
+    const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr, job.normal_map_space);
+    // Three renders: the refined materials and weights may pay where their
+    // map does not (normal_stage.h: the bunny scan).
+    const PhotoChoice choice = ChooseOnPhotos(pc, no.min_improvement);
+    const char* what = choice == PhotoChoice::kRefinedWithMap      ? "kept"
+                       : choice == PhotoChoice::kRefinedWithoutMap ? "not kept (refined materials and weights, mesh normals)"
+                                                                   : "not kept (mesh normals, clustering's estimate)";
+    std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with (%g refined without the "
+                 "map): %s\n", pc.photos, pc.error_without_map, pc.error_with_map, pc.error_refined_no_map, what);
     photo_check = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
-                   {"error_with_map", pc.error_with_map}, {"kept", keep}};
-    if (!keep) {
+                   {"error_with_map", pc.error_with_map}, {"error_refined_no_map", pc.error_refined_no_map},
+                   {"kept", choice == PhotoChoice::kRefinedWithMap},
+                   {"refined_materials_kept", choice != PhotoChoice::kMeshNormals}};
+    if (choice == PhotoChoice::kMeshNormals) {
       est = est_mesh_normals;
-      nr = NormalRefinement();
+      merge.merges = 0;  // the clustering's estimate: no merge in the output
     }
+    if (choice != PhotoChoice::kRefinedWithMap) nr = NormalRefinement();
   }
   // The output weights (re-solved with the refined normals when those were
   // kept) get the region-interior smoothing that the held-out samples chose
@@ -150,7 +159,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
 
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);
-  if (nr.kept) material.normal_map = NormalMapImage(g.atlas, nr.normal);
+  if (nr.kept) {
+    material.normal_map = NormalMapImage(g.atlas, nr.normal, job.normal_map_space);
+    material.normal_map_space = job.normal_map_space;
+  }
   material.extra = {{"source", "svbrdf reconstruct"}, {"scene", job.scene_path}};
   SaveMaterial(material, job.out_dir);
   material = LoadMaterial(job.out_dir);  // what relight will see

@@ -3,6 +3,7 @@
 // NNLS weights), refine per-texel normals (lib/normals), write the material folder and a report with pictures and a
 // summary JSON. Per-stage timings and peak memory are recorded.
 #pragma once
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -22,6 +23,9 @@ struct ReconstructionJob {
   NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
   NormalAlternationOptions alternation;  // normals <-> materials bootstrap (normal_stage.h)
   MergeOptions merge;                    // same-family materials merged in the refined frames (merge_stage.h)
+  // Space of the written normal map (io/normal_map_space.h); the photo check
+  // renders the map in it. World is the format before "normal_map_space".
+  NormalMapSpace normal_map_space = NormalMapSpace::kTangent;
   bool report = true;  // pictures and summary under out_dir/report
   // Anytime (seconds, 0 = none): the best material found within this wall
   // time from the start, always a complete folder. Gathering and one cluster
@@ -32,6 +36,9 @@ struct ReconstructionJob {
   // Seconds already spent when RunReconstruction starts that count against
   // the budget (the CLI passes the program's start-up: ProcessAgeSeconds).
   double time_spent_before_s = 0;
+  // Called on the gathered samples before the estimate (bench tools: e.g.
+  // an oracle that drops samples by their disagreement with a known truth).
+  std::function<void(GatherResult&)> after_gather;
 };
 
 // Returns the summary (also written to out_dir/report/summary.json).

@@ -25,8 +25,9 @@ RenderedView RenderViewEnvironment(const RayTracer& tracer, const MaterialShader
     *hit_out = true;
     const Vec3 x = tracer.Position(hit);
     const Vec2 uv = tracer.TexCoord(hit);
-    const Vec3 n_shade = shader.Normal(uv, tracer.ShadingNormal(hit));
-    const Frame frame = Frame::FromNormalTangent(n_shade, tracer.mesh().FaceDpDu(hit.prim));
+    const Vec3 dpdu = tracer.mesh().FaceDpDu(hit.prim);
+    const Vec3 n_shade = shader.Normal(uv, tracer.ShadingNormal(hit), dpdu);
+    const Frame frame = Frame::FromNormalTangent(n_shade, dpdu);
     const Vec3 wo = (eye - x).normalized();
     // Shadow rays leave on the viewer's side of the triangle.
     const Vec3 ng = hit.geometric_normal.dot(wo) >= 0 ? hit.geometric_normal : Vec3(-hit.geometric_normal);

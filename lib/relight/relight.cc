@@ -46,8 +46,9 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
   };
   auto vertex = [&](const Hit& hit) {
     Vertex v{hit, tracer.Position(hit), tracer.TexCoord(hit), Frame{}};
-    const Vec3 n_shade = shader.Normal(v.uv, tracer.ShadingNormal(hit));
-    v.frame = Frame::FromNormalTangent(n_shade, tracer.mesh().FaceDpDu(hit.prim));
+    const Vec3 dpdu = tracer.mesh().FaceDpDu(hit.prim);
+    const Vec3 n_shade = shader.Normal(v.uv, tracer.ShadingNormal(hit), dpdu);
+    v.frame = Frame::FromNormalTangent(n_shade, dpdu);
     return v;
   };
   // Ray origin just off the surface, on the side direction d leaves to.

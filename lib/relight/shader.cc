@@ -25,11 +25,12 @@ void MaterialShader::Weights(const Vec2& uv, std::vector<Rgb>* w) const {
   for (size_t k = 0; k < material_.basis.size(); ++k) (*w)[k] = SampleMap(material_.weights[k], uv);
 }
 
-Vec3 MaterialShader::Normal(const Vec2& uv, const Vec3& smooth_normal) const {
+Vec3 MaterialShader::Normal(const Vec2& uv, const Vec3& smooth_normal, const Vec3& dpdu) const {
   if (material_.normal_map.width == 0) return smooth_normal;
   const Rgb n = SampleMap(material_.normal_map, uv);
-  const Vec3 v(n[0], n[1], n[2]);
-  return v.squaredNorm() > 1e-12 ? Vec3(v.normalized()) : smooth_normal;
+  // A tangent-space value is applied in the frame of this point, not of
+  // the texel centres it was interpolated from: the mesh's turn is kept.
+  return NormalFromMapValue(Vec3(n[0], n[1], n[2]), material_.normal_map_space, smooth_normal, dpdu);
 }
 
 Rgb MaterialShader::Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const {

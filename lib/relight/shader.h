@@ -12,8 +12,10 @@ class MaterialShader {
 
   // Per-channel mixing weights of every basis material at uv (K x 3, row-major into `w`).
   void Weights(const Vec2& uv, std::vector<Rgb>* w) const;
-  // World-space shading normal: the normal map if present, else `smooth_normal`.
-  Vec3 Normal(const Vec2& uv, const Vec3& smooth_normal) const;
+  // World-space shading normal at a point with mesh shading normal
+  // `smooth_normal` on a face with dP/du `dpdu`: the normal map's (in its
+  // space, io/normal_map_space.h) if present, else `smooth_normal`.
+  Vec3 Normal(const Vec2& uv, const Vec3& smooth_normal, const Vec3& dpdu) const;
   // BRDF value (1/sr per channel) for world directions, given the shading frame.
   Rgb Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const;
 

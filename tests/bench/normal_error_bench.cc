@@ -271,9 +271,9 @@ int main(int argc, char** argv) {
   if (!write_dir.empty()) {
     std::vector<Vec3> grid_n(nt);
     for (int t = 0; t < nt; ++t) grid_n[t] = grid_ab[t].allFinite() ? Frame::FromNormalTangent(atlas.texels[t].normal, atlas.texels[t].tangent).ToWorld(Vec3(grid_ab[t].x(), grid_ab[t].y(), 1)).normalized() : atlas.texels[t].normal;
-    WriteImage(write_dir + "/truth128.exr", NormalMapImage(atlas, true_n));
-    WriteImage(write_dir + "/refined.exr", NormalMapImage(atlas, nr.normal));
-    WriteImage(write_dir + "/grid.exr", NormalMapImage(atlas, grid_n));
+    WriteImage(write_dir + "/truth128.exr", NormalMapImage(atlas, true_n, NormalMapSpace::kWorld));
+    WriteImage(write_dir + "/refined.exr", NormalMapImage(atlas, nr.normal, NormalMapSpace::kWorld));
+    WriteImage(write_dir + "/grid.exr", NormalMapImage(atlas, grid_n, NormalMapSpace::kWorld));
   }
   Report("== grid over tilts (own samples only, true basis and weights, least squares)", grid_err, f, K);
   Report("== angle between the grid's tilt and RefineNormals'", lm_vs_grid, f, K);

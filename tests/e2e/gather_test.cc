@@ -166,6 +166,101 @@ TEST(Gather, SamplesWhereTheNormalTurnsWithinThePixelAreRejected) {
   fs::remove_all(dir);
 }
 
+// Where the photo changes steeply within a sample's bilinear lookup (here:
+// the bumps' highlights, which turn within a pixel), the interpolated value
+// is not the texel centre's; rejecting such samples
+// (GatherOptions::max_lookup_contrast) leaves samples that
+// agree better with the true BRDF, and rejects almost none on a smooth
+// sphere, whose mesh does not turn within a pixel.
+TEST(Gather, SamplesWhosePhotoChangesSteeplyWithinTheLookupAreRejected) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_contrast_" + std::to_string(getpid()))).string();
+  const SynthOptions o = BumpySphereCapture(dir);
+  const Scene scene = LoadScene(dir + "/cap/scene.json");
+  const Material gt = LoadMaterial(dir + "/cap/gt");
+  GatherOptions go;
+  go.texture_size = o.material.texture_size;
+  go.progress = false;
+  go.max_lookup_contrast = 0.3;
+  const GatherResult kept = Gather(scene, go);
+  GatherOptions off = go;
+  off.max_lookup_contrast = 1;
+  const GatherResult all = Gather(scene, off);
+  const double e_all = MedianRelativeError(all, gt), e_kept = MedianRelativeError(kept, gt);
+  std::printf("median relative sample error: all %.4f (%ld samples), lookup contrast <= 0.3 %.4f (%ld)\n", e_all,
+              long(all.samples.size()), e_kept, long(kept.samples.size()));
+  EXPECT_EQ(all.stats.contrast, 0);
+  EXPECT_GT(kept.stats.contrast, 0);
+  EXPECT_GT(kept.samples.size(), 100);
+  EXPECT_LT(e_kept, 0.93 * e_all);
+  // A smooth sphere loses few samples (at its silhouette, where a pixel's
+  // footprint spans much of the coarse mesh's turn), and none where its
+  // mesh turns less than the condition within a pixel (its contrast there is
+  // the material's signal).
+  SynthOptions smooth = SynthPreset("tiny");
+  smooth.num_images = 4;
+  smooth.num_heldout = 0;
+  Synthesize(smooth, dir + "/smooth");
+  const Scene smooth_scene = LoadScene(dir + "/smooth/scene.json");
+  const GatherResult s = Gather(smooth_scene, go);
+  std::printf("smooth sphere: %ld of %ld samples rejected for contrast\n", s.stats.contrast,
+              long(s.stats.kept + s.stats.contrast));
+  EXPECT_LT(s.stats.contrast, 0.05 * (s.stats.kept + s.stats.contrast));
+  GatherOptions flat_only = go;
+  flat_only.contrast_min_turn_deg = 90;
+  EXPECT_EQ(Gather(smooth_scene, flat_only).stats.contrast, 0);
+  fs::remove_all(dir);
+}
+
+// The footprint probe (GatherOptions::probe_rays) sees what the texel centre
+// cannot: samples whose footprint is partly unlit (shadow boundary or
+// terminator) or partly on another surface (silhouette, occluding edge)
+// agree worse with the true BRDF than the others, and rejecting them by
+// their shares counts them and removes them.
+TEST(Gather, FootprintProbeFindsShadowBoundariesAndEdges) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_probe_" + std::to_string(getpid()))).string();
+  SynthOptions o = SynthPreset("tiny");
+  o.noise = 0;
+  o.spp = 4;
+  o.num_images = 6;
+  o.num_heldout = 0;
+  Synthesize(o, dir);
+  const Scene scene = LoadScene(dir + "/scene.json");
+  const Material gt = LoadMaterial(dir + "/gt");
+  MaterialShader shader(gt);
+  GatherOptions go;
+  go.texture_size = o.material.texture_size;
+  go.progress = false;
+  const GatherResult plain = Gather(scene, go);
+  EXPECT_TRUE(plain.probes.empty());
+  go.probe_rays = 2;
+  const GatherResult g = Gather(scene, go);
+  ASSERT_EQ(g.probes.size(), size_t(g.samples.size()));
+  EXPECT_EQ(g.samples.size(), plain.samples.size());  // probing alone rejects nothing
+  // Relative error of clean samples and of those at an edge or shadow boundary.
+  double se[2] = {0, 0}, sy[2] = {0, 0};
+  long n[2] = {0, 0};
+  for (int64_t i = 0; i < g.samples.size(); ++i) {
+    const int k = g.probes[i].foreign > 0 || g.probes[i].unlit > 0;
+    const Rgb pred = TruthPrediction(g, shader, i);
+    for (int c = 0; c < 3; ++c) {
+      se[k] += (pred[c] - g.samples.y[c][i]) * (pred[c] - g.samples.y[c][i]);
+      sy[k] += g.samples.y[c][i] * g.samples.y[c][i];
+    }
+    ++n[k];
+  }
+  const double clean = std::sqrt(se[0] / sy[0]), edge = std::sqrt(se[1] / sy[1]);
+  std::printf("relative RMSE vs truth: clean %.4f (%ld samples), edge or shadow boundary in the footprint %.4f (%ld)\n",
+              clean, n[0], edge, n[1]);
+  EXPECT_GT(n[1], 20);
+  EXPECT_GT(edge, 2 * clean);
+  go.max_unlit_share = 0;
+  go.max_probe_foreign_share = 0;
+  const GatherResult strict = Gather(scene, go);
+  EXPECT_EQ(strict.stats.probe_unlit + strict.stats.probe_foreign, n[1]);
+  EXPECT_EQ(strict.samples.size(), n[0]);
+  fs::remove_all(dir);
+}
+
 // Meshes without UVs get a chart atlas; texels outside every UV triangle
 // (dilation rings, texels claimed by sub-texel triangles) whose measured
 // point is clamped more than half a texel away take no samples.

@@ -1,0 +1,176 @@
+// Oracle of sample quality (bench_results/independent.md, "Stop 18: sample
+// quality on the bunny"): every gathered sample against the prediction of the
+// capture's true material at its texel centre, the residual's distribution by
+// sample class (footprint probe, gather.h), and a reconstruction without the
+// worst samples (an upper bound of what rejecting samples can gain).
+//
+// Usage: sample_oracle_bench SCENE TRUTH_MATERIAL OUT [DROP_FRACTION [PROBE_RAYS [CLASSES]]]
+//   TRUTH_MATERIAL: a material folder on the atlas gather makes for SCENE
+//   (scripts/mitsuba_truth_material.py). DROP_FRACTION (default 0 = report
+//   only, no reconstruction): drop this share of the samples with the largest
+//   relative residual and reconstruct (CLI defaults) into OUT. CLASSES
+//   (e.g. "foreign,unlit"): drop the samples of these classes instead.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "brdf/model.h"
+#include "core/error.h"
+#include "io/material.h"
+#include "io/output_folder.h"
+#include "pipeline/reconstruction.h"
+
+using namespace svbrdf;
+
+namespace {
+
+const char* kClassNames[] = {"foreign (occluding edge/silhouette)", "unlit part (shadow boundary)", "chart-border texel",
+                             "normal spread > 5 deg", "grazing (cos < 0.3)", "rest"};
+constexpr int kClasses = 6;
+
+bool NextToChartBorder(const Atlas& a, const Texel& t) {
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = t.x + dx, y = t.y + dy;
+      if (x < 0 || y < 0 || x >= a.width || y >= a.height) return true;
+      const int i = a.At(x, y);
+      if (i < 0 || !a.texels[i].interior) return true;
+    }
+  return false;
+}
+
+int Classify(const GatherResult& g, int64_t s) {
+  const SampleProbe& p = g.probes[s];
+  if (p.foreign > 0) return 0;
+  if (p.unlit > 0) return 1;
+  if (NextToChartBorder(g.atlas, g.atlas.texels[g.samples.texel[s]])) return 2;
+  if (p.spread_deg > 5) return 3;
+  if (std::min(g.samples.wi[2][s], g.samples.wo[2][s]) < 0.3f) return 4;
+  return 5;
+}
+
+struct Residuals {
+  std::vector<double> abs2, rel;
+  std::vector<int> cls;
+};
+
+Residuals Compute(const GatherResult& g, const Material& truth) {
+  if (truth.width != g.atlas.width || truth.height != g.atlas.height)
+    throw Error(Msg("truth material is ", truth.width, "x", truth.height, ", the atlas ", g.atlas.width, "x",
+                    g.atlas.height));
+  const SampleSet& ss = g.samples;
+  Residuals r;
+  r.abs2.resize(ss.size());
+  r.rel.resize(ss.size());
+  r.cls.resize(ss.size());
+  std::vector<double> pn(ss.size());
+  for (int64_t s = 0; s < ss.size(); ++s) {
+    const Texel& t = g.atlas.texels[ss.texel[s]];
+    const Vec3 wi(ss.wi[0][s], ss.wi[1][s], ss.wi[2][s]), wo(ss.wo[0][s], ss.wo[1][s], ss.wo[2][s]);
+    Rgb f = Rgb::Zero();
+    for (size_t k = 0; k < truth.basis.size(); ++k) {
+      const Rgb fk = EvalModelD(truth.basis[k].spec, truth.basis[k].params.data(), wi, wo);
+      for (int c = 0; c < 3; ++c) f[c] += truth.weights[k].at(t.x, t.y, c) * fk[c];
+    }
+    double e2 = 0, p2 = 0;
+    for (int c = 0; c < 3; ++c) {
+      const double p = f[c] * ss.geom[s];
+      e2 += (ss.y[c][s] - p) * (ss.y[c][s] - p);
+      p2 += p * p;
+    }
+    r.abs2[s] = e2;
+    pn[s] = std::sqrt(p2);
+    r.cls[s] = Classify(g, s);
+  }
+  std::vector<double> sorted = pn;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double floor = 0.1 * sorted[sorted.size() / 2];
+  for (int64_t s = 0; s < ss.size(); ++s) r.rel[s] = std::sqrt(r.abs2[s]) / std::max(pn[s], floor);
+  return r;
+}
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+  std::nth_element(v.begin(), v.begin() + i, v.end());
+  return v[i];
+}
+
+void Report(const Residuals& r) {
+  double total = 0;
+  for (double e : r.abs2) total += e;
+  std::printf("%-38s %8s %7s %8s %9s %9s %9s\n", "class", "samples", "share", "sq.err", "rel p50", "rel p90", "rel p99");
+  for (int c = 0; c < kClasses; ++c) {
+    std::vector<double> rel;
+    double e = 0;
+    for (size_t s = 0; s < r.cls.size(); ++s)
+      if (r.cls[s] == c) rel.push_back(r.rel[s]), e += r.abs2[s];
+    std::printf("%-38s %8zu %6.1f%% %7.1f%% %9.4f %9.4f %9.4f\n", kClassNames[c], rel.size(),
+                100.0 * rel.size() / r.cls.size(), 100 * e / total, Quantile(rel, 0.5), Quantile(rel, 0.9),
+                Quantile(rel, 0.99));
+  }
+  std::printf("%-38s %8zu %6.1f%% %7.1f%% %9.4f %9.4f %9.4f\n", "all", r.rel.size(), 100.0, 100.0,
+              Quantile(r.rel, 0.5), Quantile(r.rel, 0.9), Quantile(r.rel, 0.99));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: %s SCENE TRUTH_MATERIAL OUT [DROP_FRACTION [PROBE_RAYS [CLASSES]]]\n", argv[0]);
+    return 2;
+  }
+  const double drop = argc > 4 ? std::atof(argv[4]) : 0.0;
+  const std::string classes = argc > 6 ? argv[6] : "";
+  const Material truth = LoadMaterial(argv[2]);
+  ReconstructionJob job;
+  job.scene_path = argv[1];
+  job.gather.probe_rays = argc > 5 ? std::atoi(argv[5]) : 2;
+  job.gather.threads = job.estimate.threads;
+  job.estimate.fit.threads = job.estimate.threads;
+  job.estimate.fit.seed = job.estimate.seed;
+  bool reconstruct = drop > 0 || !classes.empty();
+  job.after_gather = [&](GatherResult& g) {
+    const Residuals r = Compute(g, truth);
+    Report(r);
+    if (const char* dump = std::getenv("ORACLE_DUMP")) {
+      // float32 columns per sample: rel, abs2, foreign, unlit, spread, contrast, chart border, cos_i, cos_o, image, texel
+      FILE* f = std::fopen(dump, "wb");
+      for (int64_t s = 0; s < g.samples.size(); ++s) {
+        const SampleProbe& p = g.probes[s];
+        const float row[11] = {float(r.rel[s]), float(r.abs2[s]), p.foreign, p.unlit, p.spread_deg, p.contrast,
+                               float(NextToChartBorder(g.atlas, g.atlas.texels[g.samples.texel[s]])),
+                               g.samples.wi[2][s], g.samples.wo[2][s], float(g.samples.image[s]),
+                               float(g.samples.texel[s])};
+        std::fwrite(row, sizeof row, 1, f);
+      }
+      std::fclose(f);
+    }
+    if (!reconstruct) throw Error("report only");
+    std::vector<char> keep(r.rel.size(), 1);
+    if (!classes.empty()) {
+      for (size_t s = 0; s < keep.size(); ++s)
+        if (classes.find(std::string(kClassNames[r.cls[s]]).substr(0, 4)) != std::string::npos) keep[s] = 0;
+    } else {
+      const double limit = Quantile(r.rel, 1 - drop);
+      for (size_t s = 0; s < keep.size(); ++s) keep[s] = r.rel[s] <= limit;
+    }
+    g.samples = KeepSamples(g.samples, keep);
+    g.probes.clear();
+    long kept = 0;
+    for (char k : keep) kept += k;
+    std::printf("kept %ld of %zu samples\n", kept, keep.size());
+    std::fflush(stdout);
+  };
+  OutputFolder out(argv[3]);
+  job.out_dir = out.path();
+  RunReconstruction(job);
+  out.Commit();
+  return 0;
+} catch (const Error& e) {
+  std::fprintf(stderr, "%s\n", e.what());
+  return std::string(e.what()) == "report only" ? 0 : 1;
+}
