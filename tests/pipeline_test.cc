@@ -77,6 +77,35 @@ TEST(MergeStage, MergedEstimateRelabelsAndKeepsTheLargerClustersMaterial) {
   EXPECT_THROW(WithMaterialsMerged(est, 0, 3), Error);
 }
 
+// The merge screen's second label map: texels with an 8-neighbour of another
+// label (blend zones, borders) are left out (-1), region interiors kept.
+TEST(MergeStage, InteriorLabelsDropTexelsNextToAnotherLabel) {
+  Atlas atlas;
+  atlas.width = 4, atlas.height = 3;
+  atlas.index.assign(12, -1);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 4; ++x) {
+      Texel tx;
+      tx.x = x, tx.y = y;
+      atlas.index[y * 4 + x] = int(atlas.texels.size());
+      atlas.texels.push_back(tx);
+    }
+  // Columns 0-2 label 0, column 3 label 1.
+  std::vector<int> label(12, 0);
+  for (int y = 0; y < 3; ++y) label[y * 4 + 3] = 1;
+  const std::vector<int> in = InteriorLabels(atlas, label);
+  for (int y = 0; y < 3; ++y) {
+    EXPECT_EQ(in[y * 4 + 0], 0);
+    EXPECT_EQ(in[y * 4 + 1], 0);
+    EXPECT_EQ(in[y * 4 + 2], -1);  // next to column 3
+    EXPECT_EQ(in[y * 4 + 3], -1);
+  }
+  label[3] = 0;  // texel (3, 0) now label 0: column 3's others stay next to it
+  const std::vector<int> in2 = InteriorLabels(atlas, label);
+  EXPECT_EQ(in2[7], -1);
+  EXPECT_EQ(in2[0], 0);
+}
+
 // Samples of `per` texels per label, 12 photos each (random directions,
 // 1 % noise), rendered with the label's material.
 SampleSet SamplesOf(const std::vector<BasisMaterial>& truth, const std::vector<int>& label, uint64_t seed) {
@@ -157,6 +186,28 @@ TEST(NormalStage, MaterialRoundKeptWhenNotWorseRepeatedWhenClearlyBetter) {
   d = DecideMaterialRound(false, 0.01, 0.0239262, min_improvement);  // its normals rejected
   EXPECT_FALSE(d.keep);
   EXPECT_FALSE(d.again);
+}
+
+// A merge inside the normal stage (before the material rounds): the
+// refinement's per-material entries follow the merged estimate's indices
+// (the merged material keeps refined normals when either part did; the
+// polish and the rounds read them by index) and its weights become the
+// merged estimate's.
+TEST(NormalStage, RefinementFollowsAMergeOfTwoMaterials) {
+  NormalRefinement nr;
+  nr.material_kept = {1, 0, 1, 0};
+  nr.heldout_rmse_mesh_by_material = {0.1, 0.2, 0.3, 0.4};
+  nr.heldout_rmse_refined_by_material = {0.01, 0.02, 0.03, 0.04};
+  nr.weights.assign(4 * 3, 1.0f);
+  SvbrdfEstimate merged;
+  merged.weights.assign(3 * 3, 0.5f);
+  FollowMerge(1, 3, merged, &nr);  // 3 into 1: neither kept
+  EXPECT_EQ(nr.material_kept, (std::vector<char>{1, 0, 1}));
+  EXPECT_EQ(nr.heldout_rmse_mesh_by_material, (std::vector<double>{0.1, 0.2, 0.3}));
+  EXPECT_EQ(nr.weights, merged.weights);
+  FollowMerge(1, 2, merged, &nr);  // 2 (kept) into 1 (not): the merged one is kept
+  EXPECT_EQ(nr.material_kept, (std::vector<char>{1, 1}));
+  EXPECT_EQ(nr.heldout_rmse_refined_by_material, (std::vector<double>{0.01, 0.02}));
 }
 
 // The bootstrap of the normals <-> materials alternation starts when the

@@ -75,6 +75,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
               "when refined normals are kept: cluster again on the reoriented samples (about doubles the time)");
   c->add_option("--material-rounds", job->normals.material_rounds,
                 "when refined normals are kept: refit the basis materials with them and refine again, up to this many times");
+  c->add_option("--polish-basis", job->normals.polish_basis,
+                "in each material round: fit the basis materials jointly with their interior texels' tilts (default 1)");
   c->add_option("--normal-bootstrap-rounds", job->alternation.bootstrap_rounds,
                 "when refined normals lower some material's held-out error but are not kept: normals <-> materials\n"
                 "rounds from normals on every texel, kept if the held-out error drops (0 = off)");
@@ -83,9 +85,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "texel centre's normal holds across the texel; the format before material.json's normal_map_space)")
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, NormalMapSpace>{{"tangent", NormalMapSpace::kTangent}, {"world", NormalMapSpace::kWorld}}));
-  c->add_flag("--merge", job->merge.enabled,
+  c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
-              "frames (undoes splits the bumps caused; off by default)");
+              "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {

@@ -124,6 +124,11 @@ struct NormalOptions {
   // 0.02403, +13 s CPU), on mixed_tiny too (+3.5 s CPU); where no normals
   // are kept (default, standard) no round runs.
   int material_rounds = 2;
+  // In each material round, after the basis is refitted in the current
+  // normals' frames: its parameters fitted jointly with the tilts of its
+  // interior texels (basis_polish.h), so that the round does not stop where
+  // the tilts absorbed the basis' error.
+  bool polish_basis = true;
   int max_iterations = 10;      // Levenberg-Marquardt iterations per texel (2 unknowns: converges in a few)
   long decision_texels = 4000;  // texels used for the held-out decision (a seeded subset), >= 100
   double min_improvement = 0.01;  // relative held-out squared-error drop needed to keep the normals

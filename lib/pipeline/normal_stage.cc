@@ -6,6 +6,8 @@
 
 #include "cluster/holdout.h"
 #include "core/error.h"
+#include "io/material.h"
+#include "normals/basis_polish.h"
 #include "normals/normal_map.h"
 #include "raytrace/raytracer.h"
 #include "relight/relight.h"
@@ -108,7 +110,10 @@ namespace {
 constexpr double kNormalDecisionShare = 0.35;
 
 nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est) {
+  nlohmann::json basis = nlohmann::json::array();
+  for (const auto& b : est.basis) basis.push_back(BasisToJson(b));
   return {{"kept", nr.kept},
+          {"basis", basis},
           {"clusters", est.basis.size()},
           {"heldout_rmse_mesh", nr.heldout_rmse_mesh},
           {"heldout_rmse_refined", nr.heldout_rmse_refined},
@@ -124,10 +129,22 @@ nlohmann::json NormalsJson(const NormalRefinement& nr, const SvbrdfEstimate& est
 
 }  // namespace
 
+void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinement* nr) {
+  auto drop = [&](auto& v) {
+    if (from < int(v.size())) v.erase(v.begin() + from);
+  };
+  if (into < int(nr->material_kept.size()) && from < int(nr->material_kept.size()))
+    nr->material_kept[into] = nr->material_kept[into] || nr->material_kept[from];
+  drop(nr->material_kept);
+  drop(nr->heldout_rmse_mesh_by_material);
+  drop(nr->heldout_rmse_refined_by_material);
+  nr->weights = merged.weights;
+}
+
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
                                 SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene,
-                                NormalMapSpace map_space) {
+                                NormalMapSpace map_space, const MergeOptions& merge, MergeReport* merged) {
   ao.Check();
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
@@ -206,6 +223,10 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     }
   }
   if (nr.kept) start = nr.tilt;
+  if (nr.kept && merge.enabled) {
+    MergeReport m = MergeSameMaterials(g, eo, nr, merge, cluster_seconds, timer, &est, &nr);
+    if (merged) *merged = std::move(m);
+  }
   for (int round = 0; round < material_rounds && !start.empty(); ++round) {
     if (eo.SecondsLeft() <= cluster_seconds / 2) {
       est.cut_by_deadline.push_back("material refit");
@@ -213,6 +234,12 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     }
     timer->Start("refit materials (refined normals)");
     SvbrdfEstimate est2 = RefitSvbrdf(ReorientSamples(g.samples, start), g.atlas, eo, est);
+    if (no.polish_basis && nr.kept) {
+      timer->Start("polish basis with the tilts");
+      for (const BasisPolishReport& r :
+           PolishBasisWithTilts(g.samples, g.atlas, no, start, nr.material_kept, nr.noise_sigma, eo.fit.max_samples, &est2))
+        std::fprintf(stderr, "  %s\n", Report(r, est2).c_str());
+    }
     timer->Start("refine normals again");
     NormalRefinement nr2 = RefineNormals(g.samples, g.atlas, est2, no, &start);
     std::fprintf(stderr, "  material round %d: %s\n", round + 1, nr2.Report().c_str());

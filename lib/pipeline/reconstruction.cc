@@ -125,9 +125,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   no.deadline = eo.deadline;
   nlohmann::json normals_rounds = nlohmann::json::array();
   const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
-  NormalRefinement nr =
-      RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds, &scene,
-                     job.normal_map_space);
+  MergeReport merge;  // the merge stage runs inside the normal stage, before its material rounds
+  NormalRefinement nr = RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds,
+                                       &scene, job.normal_map_space, job.merge, &merge);
   nlohmann::json photo_check;
   if (nr.kept && no.mode == "on") {
     // The map as relight uses it, on held-out photos (normal_stage.h), after
@@ -146,10 +146,12 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                    {"error_with_map", pc.error_with_map}, {"error_refined_no_map", pc.error_refined_no_map},
                    {"kept", choice == PhotoChoice::kRefinedWithMap},
                    {"refined_materials_kept", choice != PhotoChoice::kMeshNormals}};
-    if (choice == PhotoChoice::kMeshNormals) est = est_mesh_normals;
+    if (choice == PhotoChoice::kMeshNormals) {
+      est = est_mesh_normals;
+      merge.merges = 0;  // the clustering's estimate: no merge in the output
+    }
     if (choice != PhotoChoice::kRefinedWithMap) nr = NormalRefinement();
   }
-  const MergeReport merge = MergeSameMaterials(g, eo, nr, job.merge, cluster_seconds, &timer, &est);
   // The output weights (re-solved with the refined normals when those were
   // kept) get the region-interior smoothing that the held-out samples chose
   // for the estimate's weights; the normal stage saw them unsmoothed.

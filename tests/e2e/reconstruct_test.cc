@@ -56,8 +56,17 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
 // metal's F0 is 5 % (measured
 // 2.8, 3.0, 3.2 % low in r, g, b: the brightness F0 shares with the mixing
 // weights; 7 % low before main's model-selection changes at f83a319).
-constexpr double kMixedTinyMinPsnr = 35.0;
+// With the basis polished jointly with the tilts (lib/normals/basis_polish.h):
+// 44.69 dB (min 37.13), max rd error 0.017; main before it (821b142)
+// 42.76 dB, max rd error 0.085. The floor is 1.7 dB below.
+constexpr double kMixedTinyMinPsnr = 43.0;
 constexpr double kMixedTinyF0Tolerance = 0.05;
+// The coated plastic's ior (true 1.5): 1.426 before the material rounds
+// fitted the basis jointly with the tilts (lib/normals/basis_polish.h; the
+// normals refined against a basis fitted under the mesh normals absorbed
+// its error), 1.510 with it (CLI, `synth --preset mixed_tiny`; held-out
+// 40.68 -> 42.04 dB there).
+constexpr double kMixedTinyIorTolerance = 0.04;
 
 std::string Scratch(const std::string& name) {
   const fs::path p = fs::temp_directory_path() / ("svbrdf_e2e_" + name + "_" + std::to_string(getpid()));
@@ -297,6 +306,14 @@ TEST(Reconstruct, MixedMaterialsRightCountAndMetal) {
   EXPECT_EQ(r.clusters, 3);
   EXPECT_EQ(CheckMetal(r, kMixedTinyF0Tolerance), 1);
   EXPECT_GE(r.psnr_mean, kMixedTinyMinPsnr);
+  int coated = 0;
+  for (size_t k = 0; k < r.basis.size() && k < r.truth.size(); ++k) {
+    if (!HasParam(r.basis[k], "ior") || r.truth[k].spec.Label() != r.basis[k].spec.Label()) continue;
+    ++coated;
+    std::printf("coated plastic: ior %.4f (true %.4f)\n", GetParam(r.basis[k], "ior"), GetParam(r.truth[k], "ior"));
+    EXPECT_NEAR(GetParam(r.basis[k], "ior"), GetParam(r.truth[k], "ior"), kMixedTinyIorTolerance);
+  }
+  EXPECT_EQ(coated, 1);
 }
 
 TEST(Reconstruct, ForcedModelAndCountAreHonoured) {
