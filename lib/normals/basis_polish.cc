@@ -77,15 +77,8 @@ std::vector<BasisPolishReport> PolishBasisWithTilts(const SampleSet& s, const At
   int num_images = 0;
   for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
   const std::vector<char> held = HeldOutImages(num_images, no.holdout_fraction, no.seed);
-  // Shot-noise weights as RefineNormals' (median brightness over all samples).
-  double y_median = 0;
-  if (no.shot_noise && s.size() > 0) {
-    std::vector<float> ybar;
-    const int64_t stride = std::max<int64_t>(1, s.size() / 20000);
-    for (int64_t i = 0; i < s.size(); i += stride) ybar.push_back((s.y[0][i] + s.y[1][i] + s.y[2][i]) / 3.0f);
-    std::nth_element(ybar.begin(), ybar.begin() + ybar.size() / 2, ybar.end());
-    y_median = std::max(1e-6, double(ybar[ybar.size() / 2]));
-  }
+  // Shot-noise weights as RefineNormals'.
+  const ShotNoiseWeights noise = MakeShotNoiseWeights(s, no.shot_noise);
   std::vector<Frame> frames(nt);
   for (int t = 0; t < nt; ++t) frames[t] = Frame::FromNormalTangent(atlas.texels[t].normal, atlas.texels[t].tangent);
   auto neighbours = [&](int t) {
@@ -139,8 +132,7 @@ std::vector<BasisPolishReport> PolishBasisWithTilts(const SampleSet& s, const At
         for (int c = 0; c < 3; ++c) ts.wi[c] = s.wi[c][i], ts.wo[c] = s.wo[c][i], ts.y[c] = s.y[c][i];
         ts.geom = s.geom[i];
         cost->samples.push_back(ts);
-        const double ybar = (ts.y[0] + ts.y[1] + ts.y[2]) / 3.0;
-        cost->sqrt_v.push_back(y_median > 0 ? std::sqrt(1.0 / (1.0 + std::max(0.0, ybar) / y_median)) : 1.0);
+        cost->sqrt_v.push_back(std::sqrt(noise(ts.y)));
       }
       if (int64_t(cost->samples.size()) < no.min_own_samples) {
         delete cost;

@@ -96,13 +96,7 @@ class Refiner {
     for (int32_t im : s.image) num_images = std::max(num_images, im + 1);
     held_image_ = HeldOutImages(num_images, o.holdout_fraction, o.seed);
     max_ab_ = std::tan(o.max_tilt_deg * kPi / 180.0);
-    if (o.shot_noise && s.size() > 0) {
-      std::vector<float> ybar;
-      const int64_t stride = std::max<int64_t>(1, s.size() / 20000);
-      for (int64_t i = 0; i < s.size(); i += stride) ybar.push_back((s.y[0][i] + s.y[1][i] + s.y[2][i]) / 3.0f);
-      std::nth_element(ybar.begin(), ybar.begin() + ybar.size() / 2, ybar.end());
-      y_median_ = std::max(1e-6, double(ybar[ybar.size() / 2]));
-    }
+    noise_ = MakeShotNoiseWeights(s, o.shot_noise);
     frames_.resize(nt_);
     neighbours_.resize(nt_);
     support_.resize(nt_);
@@ -509,13 +503,11 @@ class Refiner {
   std::vector<std::vector<int>> neighbours_;
   std::vector<std::vector<int>> support_;
   double max_ab_ = 1.0;
-  double y_median_ = 0;  // > 0: shot-noise weights (NoiseWeight)
+  ShotNoiseWeights noise_;
 
  public:
-  // Inverse relative variance of a sample of mean brightness ybar (1 without shot_noise).
-  double NoiseWeight(const double* y) const {
-    return y_median_ > 0 ? 1.0 / (1.0 + std::max(0.0, (y[0] + y[1] + y[2]) / 3.0) / y_median_) : 1.0;
-  }
+  // Inverse relative variance of a sample of colour y (1 without shot_noise).
+  double NoiseWeight(const double* y) const { return noise_(y); }
 };
 
 State MakeState(size_t n, int K) { return State{std::vector<double>(2 * n, 0.0), std::vector<float>(n * K * 3, 0.0f)}; }
@@ -694,6 +686,17 @@ SampleSet ReorientSamples(const SampleSet& s, const std::vector<Vec2>& tilt) {
     out.texel_begin.push_back(out.size());
   }
   return out;
+}
+
+ShotNoiseWeights MakeShotNoiseWeights(const SampleSet& s, bool on) {
+  ShotNoiseWeights w;
+  if (!on || s.size() == 0) return w;
+  std::vector<float> ybar;
+  const int64_t stride = std::max<int64_t>(1, s.size() / 20000);
+  for (int64_t i = 0; i < s.size(); i += stride) ybar.push_back((s.y[0][i] + s.y[1][i] + s.y[2][i]) / 3.0f);
+  std::nth_element(ybar.begin(), ybar.begin() + ybar.size() / 2, ybar.end());
+  w.y_median = std::max(1e-6, double(ybar[ybar.size() / 2]));
+  return w;
 }
 
 }  // namespace svbrdf

@@ -45,6 +45,7 @@
 // all samples; the other texels keep the mesh normal. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
+#include <algorithm>
 #include <chrono>
 #include <string>
 #include <vector>
@@ -169,6 +170,18 @@ struct NormalRefinement {
 // round's); null = the mesh normals. The prior always pulls towards the mesh normal.
 NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, const SvbrdfEstimate& estimate,
                                const NormalOptions& options, const std::vector<Vec2>* start = nullptr);
+
+// Shot-noise weighting of the normal fits (NormalOptions::shot_noise): a
+// sample of mean brightness ybar has relative variance 1 + ybar / median,
+// the median taken over (a subsample of) all samples' mean brightness.
+struct ShotNoiseWeights {
+  double y_median = 0;  // > 0: weights on; 0: every weight 1
+  // Inverse relative variance of a sample with colour y.
+  double operator()(const double* y) const {
+    return y_median > 0 ? 1.0 / (1.0 + std::max(0.0, (y[0] + y[1] + y[2]) / 3.0) / y_median) : 1.0;
+  }
+};
+ShotNoiseWeights MakeShotNoiseWeights(const SampleSet& samples, bool on);
 
 // The samples re-expressed in the frames of the refined normals (directions
 // rotated, geom = cos_i(refined) s), so that a second clustering sees the
