@@ -72,6 +72,7 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,
                                   NormalMapSpace map_space, int max_photos) {
   PhotoCheck out;
+  out.measured = true;
   const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
   std::vector<size_t> images;
   for (size_t i = 0; i < held.size() && int(images.size()) < max_photos; ++i)
@@ -144,8 +145,10 @@ void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinem
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
                                 SvbrdfEstimate* est_io, nlohmann::json* rounds, const Scene* scene,
-                                NormalMapSpace map_space, const MergeOptions& merge, MergeReport* merged) {
+                                NormalMapSpace map_space, const MergeOptions& merge, MergeReport* merged,
+                                PhotoCheck* output_check) {
   ao.Check();
+  PhotoCheck check_of_output;  // the photo check below, while it still describes the output
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
   if (!no.Enabled()) return nr;
@@ -163,6 +166,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
   rounds->push_back(NormalsJson(nr, est));
   const bool recluster_fits = eo.SecondsLeft() > cluster_seconds;
   if (nr.kept && no.recluster && !recluster_fits) est.cut_by_deadline.push_back("second clustering");
+  bool reclustered = false;  // the second clustering's estimate replaced the first
   if (nr.kept && no.recluster && recluster_fits) {
     // Bumps that the mesh lacks shade the texels of one material
     // differently, which the clustering reads as different materials (or as
@@ -177,7 +181,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     // Held-out errors of both rounds are on the same photos and texels.
     const bool better = no.mode == "force" || (nr2.kept && nr2.heldout_rmse_refined < nr.heldout_rmse_refined);
     rounds->back()["chosen"] = better;
-    if (better) est = std::move(est2), nr = std::move(nr2);
+    if (better) est = std::move(est2), nr = std::move(nr2), reclustered = true;
   }
   if (scene && nr.kept && no.mode == "on") {
     timer->Start("normal map photo check");
@@ -192,6 +196,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
                                      {"error_with_map", pc.error_with_map},
                                      {"error_refined_no_map", pc.error_refined_no_map}, {"kept", pass}};
     if (!pass) return NormalRefinement();
+    if (!reclustered) check_of_output = pc;
   }
   // Normals <-> materials: materials fitted under the mesh normals are
   // biased where the surface is bumped (a metal's shifted highlights read
@@ -225,6 +230,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
   if (nr.kept) start = nr.tilt;
   if (nr.kept && merge.enabled) {
     MergeReport m = MergeSameMaterials(g, eo, nr, merge, cluster_seconds, timer, &est, &nr);
+    if (m.merges > 0) check_of_output = PhotoCheck();
     if (merged) *merged = std::move(m);
   }
   for (int round = 0; round < material_rounds && !start.empty(); ++round) {
@@ -256,10 +262,12 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     rounds->back()["chosen"] = d.keep;
     if (!d.keep) break;
     est = std::move(est2), nr = std::move(nr2);
+    check_of_output = PhotoCheck();
     start = nr.tilt;
     if (!d.again) break;
   }
   if (nr.kept) est.weights = nr.weights;
+  if (output_check) *output_check = check_of_output;
   return nr;
 }
 

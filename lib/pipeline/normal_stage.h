@@ -60,11 +60,17 @@ struct NormalAlternationOptions {
 // not match: apart 0.0139, merged 0.0188 held-out RMSE) and 4 materials,
 // 43.08 dB; before them the two conductor clusters merge (3 materials,
 // 45.74 dB, the copper's normals 0.65 -> 0.55 deg from the truth).
+// `output_check`: the stage's photo check of its first refinement when
+// that is still what the stage returns (no second clustering chosen, no
+// merge, no material round kept), so the pipeline's final check need not
+// render the same three materials again; otherwise left unmeasured.
+struct PhotoCheck;
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,
                                 const NormalAlternationOptions& ao, double cluster_seconds, StageTimer* timer,
                                 SvbrdfEstimate* est, nlohmann::json* rounds, const Scene* scene = nullptr,
                                 NormalMapSpace map_space = NormalMapSpace::kTangent,
-                                const MergeOptions& merge = MergeOptions(), MergeReport* merged = nullptr);
+                                const MergeOptions& merge = MergeOptions(), MergeReport* merged = nullptr,
+                                PhotoCheck* output_check = nullptr);
 
 // After `from` was merged into `into` (WithMaterialsMerged): the refinement's
 // per-material entries follow (into kept when either was), its weights are
@@ -90,6 +96,7 @@ struct PhotoCheck {
   double error_with_map = 0;     // `after` with its map
   double error_refined_no_map = 0;  // `after` without the map
   int photos = 0;
+  bool measured = false;  // set by CheckNormalMapOnPhotos
 };
 PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
                                   const SvbrdfEstimate& before, const SvbrdfEstimate& after, const NormalRefinement& nr,

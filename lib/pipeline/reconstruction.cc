@@ -126,14 +126,19 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   nlohmann::json normals_rounds = nlohmann::json::array();
   const SvbrdfEstimate est_mesh_normals = no.mode == "on" ? est : SvbrdfEstimate();
   MergeReport merge;  // the merge stage runs inside the normal stage, before its material rounds
+  PhotoCheck stage_check;  // measured when the stage's own photo check still describes its output
   NormalRefinement nr = RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds,
-                                       &scene, job.normal_map_space, job.merge, &merge);
+                                       &scene, job.normal_map_space, job.merge, &merge, &stage_check);
   nlohmann::json photo_check;
   if (nr.kept && no.mode == "on") {
     // The map as relight uses it, on held-out photos (normal_stage.h), after
     // the material rounds too (the stage checked the first refinement).
-    timer.Start("normal map photo check");
-    const PhotoCheck pc = CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr, job.normal_map_space);
+    // When nothing changed since the stage's check (no merge, no material
+    // round kept), its three renders are these: not rendered again.
+    if (!stage_check.measured) timer.Start("normal map photo check");
+    const PhotoCheck pc = stage_check.measured
+                              ? stage_check
+                              : CheckNormalMapOnPhotos(scene, g, eo, est_mesh_normals, est, nr, job.normal_map_space);
     // Three renders: the refined materials and weights may pay where their
     // map does not (normal_stage.h: the bunny scan).
     const PhotoChoice choice = ChooseOnPhotos(pc, no.min_improvement);
@@ -145,7 +150,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     photo_check = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
                    {"error_with_map", pc.error_with_map}, {"error_refined_no_map", pc.error_refined_no_map},
                    {"kept", choice == PhotoChoice::kRefinedWithMap},
-                   {"refined_materials_kept", choice != PhotoChoice::kMeshNormals}};
+                   {"refined_materials_kept", choice != PhotoChoice::kMeshNormals},
+                   {"reused_stage_check", stage_check.measured}};
     if (choice == PhotoChoice::kMeshNormals) {
       est = est_mesh_normals;
       merge.merges = 0;  // the clustering's estimate: no merge in the output

@@ -24,8 +24,21 @@ struct Outcome {
   nlohmann::json summary;
 };
 
-Outcome Reconstruct(const std::string& dir, const std::string& tag, int bootstrap_rounds, int texture_size = 0) {
+// The final photo check reuses the normal stage's renders exactly when
+// nothing changed the result after the stage's check: no merge and no
+// material round kept (reconstruction.cc).
+void ExpectPhotoCheckReusedOnlyWhenUnchanged(const nlohmann::json& summary) {
+  const nlohmann::json& normals = summary["normals"];
+  if (!normals.contains("photo_check")) return;
+  bool changed = summary["merge"]["merges"].get<int>() > 0;
+  for (const auto& round : normals["rounds"]) changed |= round.contains("material_round") && round.value("chosen", false);
+  EXPECT_EQ(normals["photo_check"]["reused_stage_check"].get<bool>(), !changed);
+}
+
+Outcome Reconstruct(const std::string& dir, const std::string& tag, int bootstrap_rounds, int texture_size = 0,
+                    int material_rounds = -1) {
   ReconstructionJob job;
+  if (material_rounds >= 0) job.normals.material_rounds = material_rounds, job.merge.enabled = false;
   job.scene_path = dir + "/capture/scene.json";
   job.out_dir = dir + "/material_" + tag;
   if (texture_size > 0) job.gather.texture_size = texture_size;
@@ -59,6 +72,12 @@ TEST(BumpMapped, SmallCaptureFindsTheThreeMaterials) {
               int(r.summary["normals"]["kept"].get<bool>()));
   EXPECT_EQ(int(r.summary["clusters"]), 3);
   EXPECT_GT(r.psnr, 39.0);
+  ExpectPhotoCheckReusedOnlyWhenUnchanged(r.summary);
+  // Without merge and material rounds nothing changes after the stage's
+  // check, so its renders are the final choice's.
+  const Outcome plain = Reconstruct(dir, "plain", NormalAlternationOptions().bootstrap_rounds, 64, 0);
+  ASSERT_TRUE(plain.summary["normals"].contains("photo_check"));
+  EXPECT_TRUE(plain.summary["normals"]["photo_check"]["reused_stage_check"].get<bool>());
   fs::remove_all(dir);
 }
 
@@ -89,6 +108,8 @@ TEST(BumpMapped, DefaultMaterialsRightCountAndNormalsPayOff) {
   // rounds follow it: 32.71 dB.)
   EXPECT_GE(chosen_rounds, 1);
   EXPECT_TRUE(r.summary["normals"]["kept"].get<bool>());
+  ExpectPhotoCheckReusedOnlyWhenUnchanged(r.summary);
+  EXPECT_FALSE(r.summary["normals"]["photo_check"]["reused_stage_check"].get<bool>());
   // 32.71 dB with the neighbours' samples pooled in every pass of the tilt
   // fit; 33.75 dB with own samples and a prior towards the neighbours'
   // tilts after the first pass (NormalOptions::smooth_tilt); 37.09 dB at
