@@ -83,45 +83,54 @@ struct Record {
   SampleProbe probe;
 };
 
-// GatherOptions::probe_rays: n x n stratified rays through each of the four
-// pixels of the bilinear lookup at (px, py), weighted like the lookup. A ray
+// The rays of a footprint measure (GatherOptions::footprint_rays,
+// probe_rays): n x n stratified rays through each of the four pixels of the
+// bilinear lookup at continuous pixel (px, py). Calls visit(w, hit, h) for
+// each, w = the lookup's weight of the ray's pixel / n^2 (they sum to 1),
+// hit = whether the ray meets the mesh (then at h).
+template <class Visit>
+void ForEachLookupRay(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
+                      double px, double py, int n, Visit&& visit) {
+  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
+  const int x0 = static_cast<int>(std::floor(px - 0.5)), y0 = static_cast<int>(std::floor(py - 0.5));
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) / (n * n);
+      if (w <= 0) continue;
+      for (int sy = 0; sy < n; ++sy)
+        for (int sx = 0; sx < n; ++sx) {
+          const Vec2 p(x0 + dx + (sx + 0.5) / n, y0 + dy + (sy + 0.5) / n);
+          Hit h;
+          const bool hit = tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h);
+          visit(w, hit, h);
+        }
+    }
+}
+
+// GatherOptions::probe_rays: the lookup's rays (ForEachLookupRay). A ray
 // that misses or hits farther than `tolerance` from x is foreign; on the
 // others the light is tested as at the texel centre (facing, shadow ray from
 // the hit, offset along its geometric normal).
 SampleProbe ProbeFootprint(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                            const Light& light, const Vec3& x, const Vec3& n, double tolerance, double eps, double px,
                            double py, int rays) {
-  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
-  const int x0 = static_cast<int>(std::floor(px - 0.5)), y0 = static_cast<int>(std::floor(py - 0.5));
   double foreign = 0, unlit = 0, total = 0, min_cos = 1;
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) / (rays * rays);
-      if (w <= 0) continue;
-      for (int sy = 0; sy < rays; ++sy)
-        for (int sx = 0; sx < rays; ++sx) {
-          total += w;
-          const Vec2 p(x0 + dx + (sx + 0.5) / rays, y0 + dy + (sy + 0.5) / rays);
-          Hit h;
-          if (!tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h)) {
-            foreign += w;
-            continue;
-          }
-          const Vec3 q = tracer.Position(h);
-          if ((q - x).norm() > tolerance) {
-            foreign += w;
-            continue;
-          }
-          const Vec3 ns = tracer.ShadingNormal(h);
-          Vec3 ng = h.geometric_normal;
-          if (ng.dot(ns) < 0) ng = -ng;
-          min_cos = std::min(min_cos, ns.dot(n));
-          const LightSample ls = SampleLight(light, q, world_from_cam.rotation, eye);
-          if (!(ns.dot(ls.wi) > 0) ||
-              tracer.Occluded(q + ng * eps, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * eps))
-            unlit += w;
-        }
+  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, rays, [&](double w, bool hit, const Hit& h) {
+    total += w;
+    const Vec3 q = hit ? tracer.Position(h) : Vec3::Zero();
+    if (!hit || (q - x).norm() > tolerance) {
+      foreign += w;
+      return;
     }
+    const Vec3 ns = tracer.ShadingNormal(h);
+    Vec3 ng = h.geometric_normal;
+    if (ng.dot(ns) < 0) ng = -ng;
+    min_cos = std::min(min_cos, ns.dot(n));
+    const LightSample ls = SampleLight(light, q, world_from_cam.rotation, eye);
+    if (!(ns.dot(ls.wi) > 0) ||
+        tracer.Occluded(q + ng * eps, ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * eps))
+      unlit += w;
+  });
   SampleProbe out;
   if (!(total > 0)) return out;
   out.foreign = static_cast<float>(foreign / total);
@@ -130,36 +139,24 @@ SampleProbe ProbeFootprint(const RayTracer& tracer, const Camera& cam, const Rig
   return out;
 }
 
-// The mean shading normal seen by the bilinear lookup at continuous pixel
-// (px, py): n x n stratified rays through each of its four pixels, weighted
-// by the lookup's weights. Rays that miss, or hit farther than `tolerance`
-// from x (another surface in front or behind: an occluding edge), count as
-// foreign. Returns false when their share exceeds max_foreign_share;
-// otherwise *mean is the (unnormalised) weighted mean of the others.
+// The mean shading normal seen by the lookup's rays (ForEachLookupRay).
+// Rays that miss, or hit farther than `tolerance` from x (another surface in
+// front or behind: an occluding edge), count as foreign. Returns false when
+// their share exceeds max_foreign_share; otherwise *mean is the
+// (unnormalised) weighted mean of the others.
 bool FootprintNormal(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                      const Vec3& x, double tolerance, double px, double py, int n, double max_foreign_share,
                      Vec3* mean) {
-  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
-  const int x0 = static_cast<int>(std::floor(px - 0.5)), y0 = static_cast<int>(std::floor(py - 0.5));
   Vec3 sum = Vec3::Zero();
   double foreign = 0, total = 0;
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) / (n * n);
-      if (w <= 0) continue;
-      for (int sy = 0; sy < n; ++sy)
-        for (int sx = 0; sx < n; ++sx) {
-          total += w;
-          const Vec2 p(x0 + dx + (sx + 0.5) / n, y0 + dy + (sy + 0.5) / n);
-          Hit h;
-          if (!tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h) ||
-              (tracer.Position(h) - x).norm() > tolerance) {
-            foreign += w;
-            continue;
-          }
-          sum += w * tracer.ShadingNormal(h);
-        }
+  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h) {
+    total += w;
+    if (!hit || (tracer.Position(h) - x).norm() > tolerance) {
+      foreign += w;
+      return;
     }
+    sum += w * tracer.ShadingNormal(h);
+  });
   if (!(total > 0) || foreign > max_foreign_share * total) return false;
   *mean = sum / (total - foreign);
   return mean->norm() > 1e-6;
@@ -348,12 +345,13 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       const double contrast = (hi - lo) / (hi + lo + 2 * options.noise_floor);
       if (contrast > options.max_lookup_contrast && footprint_turn >= min_contrast_turn)
         return void(r.reason = kContrast);
-      r.probe.contrast = static_cast<float>(contrast);
       if (options.probe_rays > 0) {
         const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
         r.probe = ProbeFootprint(tracer, cam, world_from_cam, eye, light, x, n, tolerance, eps, px.x(), px.y(),
                                  options.probe_rays);
-
+      }
+      r.probe.contrast = static_cast<float>(contrast);  // beside the probe's own measures
+      if (options.probe_rays > 0) {
         if (r.probe.foreign > options.max_probe_foreign_share) return void(r.reason = kProbeForeign);
         if (r.probe.unlit > options.max_unlit_share) return void(r.reason = kProbeUnlit);
       }

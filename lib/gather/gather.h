@@ -124,8 +124,8 @@ struct GatherStats {
   long outside_image = 0, back_facing = 0, occluded = 0, outside_mask = 0, unlit = 0, shadowed = 0,
        saturated = 0, invalid = 0;
   long turning = 0;  // normal turns too much within the pixel footprint (GatherOptions::max_footprint_turn_deg)
-  long probe_unlit = 0, probe_foreign = 0;
-  long contrast = 0;  // photo changes too steeply within the lookup (GatherOptions::max_lookup_contrast)  // rejected by the footprint probe (GatherOptions::probe_rays)
+  long probe_unlit = 0, probe_foreign = 0;  // rejected by the footprint probe (GatherOptions::probe_rays)
+  long contrast = 0;  // photo changes too steeply within the lookup (GatherOptions::max_lookup_contrast)
   long signal = 0;  // kept samples with a channel above the noise floor
   std::vector<long> kept_per_image;
   std::vector<std::string> warnings;  // e.g. views without signal

@@ -236,6 +236,10 @@ TEST(Gather, FootprintProbeFindsShadowBoundariesAndEdges) {
   const GatherResult g = Gather(scene, go);
   ASSERT_EQ(g.probes.size(), size_t(g.samples.size()));
   EXPECT_EQ(g.samples.size(), plain.samples.size());  // probing alone rejects nothing
+  // The probe keeps each sample's lookup contrast beside its own measures.
+  float max_contrast = 0;
+  for (const SampleProbe& p : g.probes) max_contrast = std::max(max_contrast, p.contrast);
+  EXPECT_GT(max_contrast, 0.05f);
   // Relative error of clean samples and of those at an edge or shadow boundary.
   double se[2] = {0, 0}, sy[2] = {0, 0};
   long n[2] = {0, 0};
