@@ -81,18 +81,6 @@ std::vector<BasisPolishReport> PolishBasisWithTilts(const SampleSet& s, const At
   const ShotNoiseWeights noise = MakeShotNoiseWeights(s, no.shot_noise);
   std::vector<Frame> frames(nt);
   for (int t = 0; t < nt; ++t) frames[t] = Frame::FromNormalTangent(atlas.texels[t].normal, atlas.texels[t].tangent);
-  auto neighbours = [&](int t) {
-    std::vector<int> u;
-    const Texel& tx = atlas.texels[t];
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int x = tx.x + dx, y = tx.y + dy;
-        if ((dx || dy) && x >= 0 && y >= 0 && x < atlas.width && y < atlas.height && atlas.At(x, y) >= 0 &&
-            atlas.At(x, y) < nt)
-          u.push_back(atlas.At(x, y));
-      }
-    return u;
-  };
   const double max_ab = std::tan(no.max_tilt_deg * kPi / 180.0);
   const double cauchy = no.robust_sigmas > 0 ? std::max(1e-12, no.robust_sigmas * sigma) : 0.0;
 
@@ -105,7 +93,7 @@ std::vector<BasisPolishReport> PolishBasisWithTilts(const SampleSet& s, const At
     std::vector<std::pair<uint64_t, int>> keyed;
     for (int t = 0; t < nt; ++t) {
       if (est->label[t] != k) continue;
-      const std::vector<int> nb = neighbours(t);
+      const std::vector<int> nb = TexelNeighbours8(atlas, t, nt);
       if (nb.size() < 8 || std::any_of(nb.begin(), nb.end(), [&](int u) { return est->label[u] != k; })) continue;
       double wk = 0, other = 0;
       for (int j = 0; j < K; ++j)
@@ -142,18 +130,12 @@ std::vector<BasisPolishReport> PolishBasisWithTilts(const SampleSet& s, const At
       cost->cauchy = cauchy;
       // Priors as RefineNormals' own-sample passes: towards the mesh normal
       // and towards each neighbour's current tilt (in t's tangent axes).
-      double prec = 1.0 / (no.prior_tilt * no.prior_tilt);
-      Vec2 sum = Vec2::Zero();
-      if (no.smooth_tilt > 0)
-        for (int u : neighbours(t)) {
-          const Frame& fu = frames[u];
-          if (fu.n.dot(frames[t].n) < 0.5) continue;
-          const Vec3 d = tilt[u].x() * fu.t + tilt[u].y() * fu.b;
-          const double q = 1.0 / (no.smooth_tilt * no.smooth_tilt);
-          prec += q, sum += q * Vec2(d.dot(frames[t].t), d.dot(frames[t].b));
-        }
-      cost->prior_scale = sigma * std::sqrt(prec);
-      cost->prior_mean[0] = sum.x() / prec, cost->prior_mean[1] = sum.y() / prec;
+      std::vector<Vec2> neighbour_tilts;
+      for (int u : TexelNeighbours8(atlas, t, nt)) {
+        Vec2 in_t;
+        if (NeighbourTiltInFrame(tilt[u], frames[u], frames[t], &in_t)) neighbour_tilts.push_back(in_t);
+      }
+      CombinedTiltPrior(no, neighbour_tilts, sigma, &cost->prior_scale, cost->prior_mean);
       const int nres = int(3 * cost->samples.size() + 2);
       rep.samples += int64_t(cost->samples.size());
       auto* fn = new ceres::DynamicAutoDiffCostFunction<TexelCost, 8>(cost);

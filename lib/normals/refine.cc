@@ -103,13 +103,7 @@ class Refiner {
     for (int t = 0; t < nt_; ++t) {
       const Texel& tx = atlas.texels[t];
       frames_[t] = Frame::FromNormalTangent(tx.normal, tx.tangent);
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = tx.x + dx, y = tx.y + dy;
-          if ((dx || dy) && x >= 0 && y >= 0 && x < atlas.width && y < atlas.height && atlas.At(x, y) >= 0 &&
-              atlas.At(x, y) < nt_)
-            neighbours_[t].push_back(atlas.At(x, y));
-        }
+      neighbours_[t] = TexelNeighbours8(atlas, t, nt_);
     }
     for (int t = 0; t < nt_; ++t) {
       // Materials of the texel and its 8 neighbours: a tilted normal must not
@@ -171,12 +165,9 @@ class Refiner {
       // degrees on a 16-texel sphere) is geometry, not a tilt to smooth
       // away. The neighbour's tilt vector a t_u + b s_u, in t's tangent axes.
       for (int u : neighbours_[t]) {
-        Vec2 ab_u;
+        Vec2 ab_u, in_t;
         if (!tilt_of(u, &ab_u)) continue;  // not fitted: no constraint
-        const Frame& fu = frames_[u];
-        if (fu.n.dot(ft.n) < 0.5) continue;  // across a crease or a thin part: unrelated bumps
-        const Vec3 d = ab_u.x() * fu.t + ab_u.y() * fu.b;
-        p.neighbour_tilts.push_back(Vec2(d.dot(ft.t), d.dot(ft.b)));
+        if (NeighbourTiltInFrame(ab_u, frames_[u], ft, &in_t)) p.neighbour_tilts.push_back(in_t);
       }
       return p;
     }
@@ -241,22 +232,8 @@ class Refiner {
     for (size_t i = 0; i < fit.samples.size(); ++i) per_sample[i] = &basis[fit.source[i]];
     const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, robust_mult * o_.robust_sigmas * sigma) : 0.0;
     normals::NormalBatchCost cost{&fit.samples, &per_sample, &fit.weight, cauchy, 0.0};
-    Prior(fit, sigma, &cost.prior_scale, cost.prior_mean);
+    CombinedTiltPrior(o_, fit.neighbour_tilts, sigma, &cost.prior_scale, cost.prior_mean);
     normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), TiltOptions(), ab);
-  }
-
-  // The Gaussian priors of a fit as one: towards the mesh normal (std
-  // prior_tilt) and towards each neighbour's tilt (std smooth_tilt), in
-  // units of the noise sigma: scale = sigma sqrt(sum of precisions), centred
-  // at their precision-weighted mean.
-  void Prior(const Pooled& fit, double sigma, double* scale, double mean[2]) const {
-    const double p = 1.0 / (o_.prior_tilt * o_.prior_tilt);
-    double s = 0;
-    Vec2 sum = Vec2::Zero();
-    if (o_.smooth_tilt > 0)
-      for (const Vec2& m : fit.neighbour_tilts) s += 1.0 / (o_.smooth_tilt * o_.smooth_tilt), sum += m / (o_.smooth_tilt * o_.smooth_tilt);
-    *scale = sigma * std::sqrt(p + s);
-    mean[0] = sum.x() / (p + s), mean[1] = sum.y() / (p + s);
   }
 
   normals::TiltSolverOptions TiltOptions() const {
@@ -298,7 +275,7 @@ class Refiner {
     if (sources[0].basis.empty()) return true;
     const double cauchy = o_.robust_sigmas > 0 ? std::max(1e-12, robust_mult * o_.robust_sigmas * sigma) : 0.0;
     normals::NormalJointCost cost{&fit.samples, &sources, &fit.weight, cauchy, 0.0};
-    Prior(fit, sigma, &cost.prior_scale, cost.prior_mean);
+    CombinedTiltPrior(o_, fit.neighbour_tilts, sigma, &cost.prior_scale, cost.prior_mean);
     normals::SolveTilt(cost, int(3 * fit.samples.size() + 2), TiltOptions(), ab);
     return true;
   }
@@ -686,6 +663,37 @@ SampleSet ReorientSamples(const SampleSet& s, const std::vector<Vec2>& tilt) {
     out.texel_begin.push_back(out.size());
   }
   return out;
+}
+
+std::vector<int> TexelNeighbours8(const Atlas& atlas, int t, int num_texels) {
+  std::vector<int> u;
+  const Texel& tx = atlas.texels[t];
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = tx.x + dx, y = tx.y + dy;
+      if ((dx || dy) && x >= 0 && y >= 0 && x < atlas.width && y < atlas.height && atlas.At(x, y) >= 0 &&
+          atlas.At(x, y) < num_texels)
+        u.push_back(atlas.At(x, y));
+    }
+  return u;
+}
+
+bool NeighbourTiltInFrame(const Vec2& ab, const Frame& from, const Frame& to, Vec2* out) {
+  if (from.n.dot(to.n) < 0.5) return false;
+  const Vec3 d = ab.x() * from.t + ab.y() * from.b;
+  *out = Vec2(d.dot(to.t), d.dot(to.b));
+  return true;
+}
+
+void CombinedTiltPrior(const NormalOptions& o, const std::vector<Vec2>& neighbour_tilts, double sigma, double* scale,
+                       double mean[2]) {
+  const double p = 1.0 / (o.prior_tilt * o.prior_tilt);
+  double s = 0;
+  Vec2 sum = Vec2::Zero();
+  if (o.smooth_tilt > 0)
+    for (const Vec2& m : neighbour_tilts) s += 1.0 / (o.smooth_tilt * o.smooth_tilt), sum += m / (o.smooth_tilt * o.smooth_tilt);
+  *scale = sigma * std::sqrt(p + s);
+  mean[0] = sum.x() / (p + s), mean[1] = sum.y() / (p + s);
 }
 
 ShotNoiseWeights MakeShotNoiseWeights(const SampleSet& s, bool on) {

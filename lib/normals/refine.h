@@ -171,6 +171,21 @@ struct NormalRefinement {
 NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, const SvbrdfEstimate& estimate,
                                const NormalOptions& options, const std::vector<Vec2>* start = nullptr);
 
+// The pieces of RefineNormals' own-sample passes that the basis polish
+// (basis_polish.h) shares:
+// - the texel's 8 atlas neighbours (texels below num_texels);
+std::vector<int> TexelNeighbours8(const Atlas& atlas, int t, int num_texels);
+// - a neighbour's tilt (a, b) in its frame `from`, carried into the tangent
+//   axes of `to`; false across a crease or a thin part (normals > 60 deg
+//   apart: unrelated bumps, no constraint);
+bool NeighbourTiltInFrame(const Vec2& ab, const Frame& from, const Frame& to, Vec2* out);
+// - the Gaussian priors of a tilt fit as one: towards the mesh normal (std
+//   prior_tilt) and towards each neighbour's tilt (std smooth_tilt, when
+//   > 0), in units of the noise sigma: scale = sigma sqrt(sum of
+//   precisions), centred at their precision-weighted mean.
+void CombinedTiltPrior(const NormalOptions& o, const std::vector<Vec2>& neighbour_tilts, double sigma, double* scale,
+                       double mean[2]);
+
 // Shot-noise weighting of the normal fits (NormalOptions::shot_noise): a
 // sample of mean brightness ybar has relative variance 1 + ybar / median,
 // the median taken over (a subsample of) all samples' mean brightness.
