@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "fit/fit.h"
+#include "normals/refine.h"
 #include "pipeline/normal_stage.h"
 
 namespace svbrdf {
@@ -115,16 +116,9 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
 
 std::vector<int> InteriorLabels(const Atlas& atlas, const std::vector<int>& label) {
   std::vector<int> out = label;
-  for (size_t t = 0; t < atlas.texels.size() && t < label.size(); ++t) {
-    const Texel& tx = atlas.texels[t];
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int x = tx.x + dx, y = tx.y + dy;
-        if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
-        const int u = atlas.At(x, y);
-        if (u >= 0 && u < int(label.size()) && label[u] != label[t]) out[t] = -1;
-      }
-  }
+  for (size_t t = 0; t < atlas.texels.size() && t < label.size(); ++t)
+    for (int u : TexelNeighbours8(atlas, int(t), int(label.size())))
+      if (label[u] != label[t]) out[t] = -1;
   return out;
 }
 

@@ -39,20 +39,25 @@ bool SomeMaterialImproved(const NormalRefinement& nr, double min_gain) {
 
 namespace {
 
-// Squared error of `material` relit against the photos `images` of `scene`, over their masks.
-double PhotoError(const Material& material, const Scene& scene, const std::vector<size_t>& images, int threads) {
+// The held-out photos a photo check scores against, read once for its renders.
+struct CheckPhoto {
+  size_t index;  // into scene.images
+  Image photo, mask;
+};
+
+// Squared error of `material` relit against `photos`, over their masks.
+double PhotoError(const Material& material, const Scene& scene, const std::vector<CheckPhoto>& photos, int threads) {
   RayTracer tracer(material.mesh);
   MaterialShader shader(material);
   RelightOptions ro;
   ro.progress = false;
   ro.threads = threads;
   double sse = 0;
-  for (size_t index : images) {
-    const ImageEntry& e = scene.images[index];
-    const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
-    Image mask;
-    if (!e.mask.empty()) mask = ReadImage(scene.Resolve(e.mask));
-    const RenderedView v = RenderView(tracer, shader, scene, index, ro);
+  for (const CheckPhoto& p : photos) {
+    const ImageEntry& e = scene.images[p.index];
+    const Image& photo = p.photo;
+    const Image& mask = p.mask;
+    const RenderedView v = RenderView(tracer, shader, scene, p.index, ro);
     const double inv = e.exposure > 0 ? 1.0 / e.exposure : 1.0;
     for (int y = 0; y < photo.height; ++y)
       for (int x = 0; x < photo.width; ++x) {
@@ -74,9 +79,13 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
   PhotoCheck out;
   out.measured = true;
   const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
-  std::vector<size_t> images;
-  for (size_t i = 0; i < held.size() && int(images.size()) < max_photos; ++i)
-    if (held[i]) images.push_back(i);
+  std::vector<CheckPhoto> images;
+  for (size_t i = 0; i < held.size() && int(images.size()) < max_photos; ++i) {
+    if (!held[i]) continue;
+    const ImageEntry& e = scene.images[i];
+    images.push_back({i, ReadImage(scene.Resolve(e.file), scene.images_color_space),
+                      e.mask.empty() ? Image() : ReadImage(scene.Resolve(e.mask))});
+  }
   out.photos = int(images.size());
   if (images.empty()) return out;
   Material without = ToMaterial(before, g.atlas, g.mesh);
