@@ -111,7 +111,7 @@ PhotoChoice ChooseOnPhotos(const PhotoCheck& pc, double min_improvement) {
 }
 
 bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement) {
-  return pc.photos == 0 || pc.error_with_map < (1.0 - min_improvement) * pc.error_without_map;
+  return ChooseOnPhotos(pc, min_improvement) != PhotoChoice::kMeshNormals;
 }
 
 namespace {
@@ -200,7 +200,9 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     const bool pass = PhotoCheckPasses(pc, no.min_improvement);
     std::fprintf(stderr, "  normal map on %d held-out photos: squared error %g without, %g with (%g refined without "
                  "the map): %s\n", pc.photos, pc.error_without_map, pc.error_with_map, pc.error_refined_no_map,
-                 pass ? "kept" : "not kept (mesh normals)");
+                 !pass ? "not kept (mesh normals)"
+                 : pc.error_with_map <= pc.error_refined_no_map ? "kept"
+                                                                : "kept for now (the refined materials and weights pay)");
     rounds->back()["photo_check"] = {{"photos", pc.photos}, {"error_without_map", pc.error_without_map},
                                      {"error_with_map", pc.error_with_map},
                                      {"error_refined_no_map", pc.error_refined_no_map}, {"kept", pass}};
