@@ -3,6 +3,10 @@
 // capture's true material at its texel centre, the residual's distribution by
 // sample class (footprint probe, gather.h), and a reconstruction without the
 // worst samples (an upper bound of what rejecting samples can gain).
+// ORACLE_EXACT=n also predicts every sample by the true material averaged
+// over n x n rays through each pixel of its bilinear lookup (each ray's own
+// normal, light and view directions), as the photo integrates it, against
+// the texel-centre prediction that every fit uses.
 //
 // Usage: sample_oracle_bench SCENE TRUTH_MATERIAL OUT [DROP_FRACTION [PROBE_RAYS [CLASSES]]]
 //   TRUTH_MATERIAL: a material folder on the atlas gather makes for SCENE
@@ -18,6 +22,9 @@
 #include <vector>
 
 #include "brdf/model.h"
+#include "io/scene.h"
+#include "light/light.h"
+#include "raytrace/raytracer.h"
 #include "core/error.h"
 #include "io/material.h"
 #include "io/output_folder.h"
@@ -116,6 +123,81 @@ void Report(const Residuals& r) {
               Quantile(r.rel, 0.5), Quantile(r.rel, 0.9), Quantile(r.rel, 0.99));
 }
 
+
+// ORACLE_EXACT: the true material's prediction of sample s averaged over the
+// lookup's rays (n x n per pixel, weighted like the bilinear lookup; rays
+// that miss or meet another surface are left out), in the sample's units
+// (samples.h: y = f cos_i E / E(x) at the texel's irradiance).
+Rgb FootprintPrediction(const GatherResult& g, const Scene& scene, const RayTracer& tracer, const Material& truth,
+                        int64_t s, int n) {
+  const SampleSet& ss = g.samples;
+  const Texel& tx = g.atlas.texels[ss.texel[s]];
+  const ImageEntry& e = scene.images[ss.image[s]];
+  const Camera& cam = scene.CameraById(e.camera);
+  const Light& light = scene.LightById(e.light);
+  const Rigid3 world_from_cam = e.cam_from_world.Inverse();
+  const Vec3 eye = e.cam_from_world.CentreInWorld();
+  const Vec2 px = cam.Project(e.cam_from_world * tx.position);
+  const double tolerance = 3.0 * (eye - tx.position).norm() / cam.fx() / 0.2;
+  const LightSample centre = SampleLight(light, tx.position, world_from_cam.rotation, eye);
+  const double centre_irradiance = tx.normal.dot(centre.wi) * centre.normal_irradiance.mean();
+  const double fx = px.x() - 0.5 - std::floor(px.x() - 0.5), fy = px.y() - 0.5 - std::floor(px.y() - 0.5);
+  const int x0 = int(std::floor(px.x() - 0.5)), y0 = int(std::floor(px.y() - 0.5));
+  Rgb sum = Rgb::Zero();
+  double total = 0;
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) / (n * n);
+      for (int sy = 0; w > 0 && sy < n; ++sy)
+        for (int sx = 0; sx < n; ++sx) {
+          Hit h;
+          const Vec2 p(x0 + dx + (sx + 0.5) / n, y0 + dy + (sy + 0.5) / n);
+          if (!tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h)) continue;
+          const Vec3 q = tracer.Position(h);
+          if ((q - tx.position).norm() > tolerance) continue;
+          total += w;
+          const LightSample ls = SampleLight(light, q, world_from_cam.rotation, eye);
+          const Frame frame = Frame::FromNormalTangent(tracer.ShadingNormal(h), tx.tangent);
+          const Vec3 wi = frame.ToLocal(ls.wi), wo = frame.ToLocal((eye - q).normalized());
+          if (wi.z() <= 0 || wo.z() <= 0) continue;
+          Rgb f = Rgb::Zero();
+          for (size_t k = 0; k < truth.basis.size(); ++k) {
+            const Rgb fk = EvalModelD(truth.basis[k].spec, truth.basis[k].params.data(), wi, wo);
+            for (int c = 0; c < 3; ++c) f[c] += truth.weights[k].at(tx.x, tx.y, c) * fk[c];
+          }
+          sum += w * f * (wi.z() * ls.normal_irradiance.mean());
+        }
+    }
+  if (!(total > 0) || !(centre_irradiance > 0)) return Rgb::Constant(std::nan(""));
+  // geom = cos_i s at the texel centre: divide it out again.
+  return sum / total / centre_irradiance * double(ss.geom[s]);
+}
+
+void ReportFootprintPrediction(const GatherResult& g, const Scene& scene, const Material& truth, const Residuals& r,
+                               int n) {
+  const RayTracer tracer(g.mesh);
+  const SampleSet& ss = g.samples;
+  std::vector<double> rel_centre, rel_footprint;
+  double sse_centre = 0, sse_footprint = 0;
+  for (int64_t s = 0; s < ss.size(); ++s) {
+    const Rgb p = FootprintPrediction(g, scene, tracer, truth, s, n);
+    if (!std::isfinite(p[0])) continue;
+    double e2 = 0;
+    for (int c = 0; c < 3; ++c) e2 += (ss.y[c][s] - p[c]) * (ss.y[c][s] - p[c]);
+    // Relative to the same norm as Residuals::rel (the centre prediction's).
+    const double norm = r.rel[s] > 0 ? std::sqrt(r.abs2[s]) / r.rel[s] : 0;
+    rel_centre.push_back(r.rel[s]);
+    rel_footprint.push_back(norm > 0 ? std::sqrt(e2) / norm : 0);
+    sse_centre += r.abs2[s], sse_footprint += e2;
+  }
+  std::printf("truth at the texel centre:        rel p50 %.4f p90 %.4f p99 %.4f, squared error %.4g (%zu samples)\n",
+              Quantile(rel_centre, 0.5), Quantile(rel_centre, 0.9), Quantile(rel_centre, 0.99), sse_centre,
+              rel_centre.size());
+  std::printf("truth over the lookup's %dx%d rays: rel p50 %.4f p90 %.4f p99 %.4f, squared error %.4g\n", n, n,
+              Quantile(rel_footprint, 0.5), Quantile(rel_footprint, 0.9), Quantile(rel_footprint, 0.99),
+              sse_footprint);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) try {
@@ -136,6 +218,8 @@ int main(int argc, char** argv) try {
   job.after_gather = [&](GatherResult& g) {
     const Residuals r = Compute(g, truth);
     Report(r);
+    if (const char* exact = std::getenv("ORACLE_EXACT"))
+      ReportFootprintPrediction(g, LoadScene(job.scene_path), truth, r, std::max(1, std::atoi(exact)));
     if (const char* dump = std::getenv("ORACLE_DUMP")) {
       // float32 columns per sample: rel, abs2, foreign, unlit, spread, contrast, chart border, cos_i, cos_o, image, texel
       FILE* f = std::fopen(dump, "wb");
