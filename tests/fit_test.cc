@@ -116,6 +116,42 @@ TEST(Fit, ExactConductorRecoversF0) {
   EXPECT_NEAR(r.params[6], 0.2, 0.01);
 }
 
+// Samples whose photo averages four normals (SampleSet::footprint: a
+// bilinear lookup of pixels on a surface that turns within them): the fit
+// with the footprint recovers the glossy coat's roughness, the fit at the
+// centre normal reads the spread as a rougher, dimmer lobe.
+TEST(Fit, FootprintSubsamplesRecoverAGlossyCoatThatTheCentreNormalBlurs) {
+  const ModelSpec spec = ModelSpec::FromLabel("coated-ggx");
+  const std::vector<double> truth = {0.5, 0.3, 0.15, 0.1, 1.5};
+  SampleSet set = SynthesizeSamples(spec, truth, Synth(6000));
+  constexpr int kSub = SampleSet::kFootprintSubsamples;
+  set.footprint.resize(size_t(set.size()) * 3 * kSub);
+  uint64_t state = 12345;
+  auto uniform = [&state]() {  // deterministic, [0, 1)
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return double(state >> 11) / double(1ULL << 53);
+  };
+  for (int64_t s = 0; s < set.size(); ++s) {
+    float* fp = &set.footprint[size_t(s) * 3 * kSub];
+    const double fx = uniform(), fy = uniform();  // the lookup's fractional offsets
+    for (int j = 0; j < kSub; ++j) {
+      fp[3 * j] = float(0.1 * (2 * uniform() - 1));  // tilts up to 5.7 deg
+      fp[3 * j + 1] = float(0.1 * (2 * uniform() - 1));
+      fp[3 * j + 2] = float(((j & 1) ? fx : 1 - fx) * ((j & 2) ? fy : 1 - fy));
+    }
+    const Rgb y = PredictSample(spec, truth.data(), set, s);
+    for (int c = 0; c < 3; ++c) set.y[c][s] = float(y[c]);
+  }
+  FitOptions options;
+  options.threads = 1;
+  const FitResult with = FitModel(spec, set, {}, options);
+  EXPECT_NEAR(with.params[3], 0.1, 0.002);
+  EXPECT_NEAR(with.params[4], 1.5, 0.02);
+  set.footprint.clear();
+  const FitResult centre = FitModel(spec, set, {}, options);
+  EXPECT_GT(centre.params[3], 0.105) << "the spread of normals should read as a rougher coat";
+}
+
 double MaxRelativeError(const std::vector<double>& a, const std::vector<double>& truth) {
   double worst = 0;
   for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - truth[i]) / std::abs(truth[i]));

@@ -56,6 +56,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--contrast-min-turn", job->gather.contrast_min_turn_deg,
                 "--max-lookup-contrast rejects only where the pixel footprint spans at least this turn of the mesh\n"
                 "normal (degrees; 0 = everywhere)");
+  c->add_option("--footprint-subsamples", job->gather.footprint_subsamples,
+                "n x n rays per pixel of each sample's lookup give each pixel's mean normal; predictions average the\n"
+                "BRDF over the four pixels as the photo does (0 = off: the texel-centre normal)");
   c->add_option("--probe-rays", job->gather.probe_rays,
                 "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off)");
   c->add_option("--max-unlit-share", job->gather.max_unlit_share,

@@ -259,8 +259,7 @@ double Clustering::ClusterSse(int k) const {
 std::vector<float> Clustering::Predict(const BasisMaterial& b) const {
   std::vector<float> p(3 * size_t(s_.size()));
   ParallelFor(s_.size(), o_.threads, [&](long i) {
-    const Vec3 wi(s_.wi[0][i], s_.wi[1][i], s_.wi[2][i]), wo(s_.wo[0][i], s_.wo[1][i], s_.wo[2][i]);
-    const Rgb f = EvalModelD(b.spec, b.params.data(), wi, wo) * s_.geom[i];
+    const Rgb f = PredictSample(b.spec, b.params.data(), s_, i);
     for (int c = 0; c < 3; ++c) p[3 * i + c] = float(f[c]);
   }, 4096);
   return p;

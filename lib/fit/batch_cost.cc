@@ -53,9 +53,11 @@ struct BatchResidual {
   const double* rows;  // PackedSamples rows of this batch
   int count;
   double robust_scale;  // 0: plain residuals
+  const double* pairs = nullptr;  // PackedSamples::pairs of this batch, or null
 
   template <class T>
   bool Eval(const T* p, T* residuals) const {
+    if (pairs) return EvalFootprint(p, residuals);
     // The model's values first (one parameter read for the whole batch),
     // written into the residuals, then turned into residuals in place.
     EvalModelBatch(spec, p, count, [this](int i, Vec3T<T>* wi, Vec3T<T>* wo) {
@@ -71,6 +73,32 @@ struct BatchResidual {
       }
     }
     return true;  // non-finite residuals are caught by RememberingCost (step rejected / FAILURE)
+  }
+
+  // PackedSamples::pairs: the model at every sub-sample's directions, summed
+  // with their weights per sample.
+  template <class T>
+  bool EvalFootprint(const T* p, T* residuals) const {
+    constexpr int kSub = SampleSet::kFootprintSubsamples, kPair = PackedSamples::kPairStride;
+    std::vector<T> f(size_t(3) * kSub * count);
+    EvalModelBatch(spec, p, kSub * count, [this](int i, Vec3T<T>* wi, Vec3T<T>* wo) {
+      const double* q = pairs + i * kPair;
+      *wi = Vec3T<T>{T(q[0]), T(q[1]), T(q[2])};
+      *wo = Vec3T<T>{T(q[3]), T(q[4]), T(q[5])};
+    }, f.data());
+    for (int i = 0; i < count; ++i) {
+      const double* s = rows + i * PackedSamples::kStride;
+      for (int c = 0; c < 3; ++c) {
+        T sum = T(0);
+        for (int j = 0; j < kSub; ++j) {
+          const double w = pairs[(i * kSub + j) * kPair + 6];
+          if (w != 0) sum += f[3 * (i * kSub + j) + c] * w;
+        }
+        const T r = sum * s[6] - s[7 + c];
+        residuals[3 * i + c] = robust_scale > 0 ? CauchyResidual(r, robust_scale) : r;
+      }
+    }
+    return true;
   }
 };
 
@@ -153,12 +181,33 @@ PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int
     out[6] = set.geom[s];
     out += kStride;
   }
+  if (set.HasFootprint()) {
+    constexpr int kSub = SampleSet::kFootprintSubsamples;
+    packed.pairs.assign(ids.size() * kPairStride * kSub, 0.0);
+    double* q = packed.pairs.data();
+    for (const int64_t s : ids) {
+      const Vec3 wi(set.wi[0][s], set.wi[1][s], set.wi[2][s]), wo(set.wo[0][s], set.wo[1][s], set.wo[2][s]);
+      const float* fp = &set.footprint[size_t(s) * 3 * kSub];
+      for (int j = 0; j < kSub; ++j, q += kPairStride) {
+        Vec3 wi_t = wi, wo_t = wo;
+        double ratio = 0;
+        // A pair below the tilted horizon keeps weight 0 and the sample's own
+        // directions (finite, evaluated but not counted).
+        if (fp[3 * j + 2] > 0 && TiltedSampleDirections(wi, wo, fp[3 * j], fp[3 * j + 1], &wi_t, &wo_t, &ratio))
+          q[6] = fp[3 * j + 2] * ratio;
+        else
+          wi_t = wi, wo_t = wo;
+        for (int k = 0; k < 3; ++k) q[k] = wi_t[k], q[3 + k] = wo_t[k];
+      }
+    }
+  }
   return packed;
 }
 
 ceres::CostFunction* MakeBatchCost(const ModelSpec& spec, const PackedSamples& packed, int64_t begin, int count,
                                    double robust_scale) {
-  const BatchResidual r{spec, packed.row(begin), count, robust_scale};
+  const BatchResidual r{spec, packed.row(begin), count, robust_scale,
+                        packed.HasFootprint() ? packed.pairs_of(begin) : nullptr};
   if (ceres::CostFunction* cost = MakeFixed(FixedSizes{}, r)) return new RememberingCost(cost);
   // Stride 8: jets of 8 derivatives per pass over the residuals.
   auto* cost = new ceres::DynamicAutoDiffCostFunction<DynamicBatchResidual, 8>(new DynamicBatchResidual{r});

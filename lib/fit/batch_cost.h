@@ -20,6 +20,16 @@ namespace svbrdf {
 struct PackedSamples {
   static constexpr int kStride = 10;
   std::vector<double> values;
+  // With footprint sub-samples (SampleSet::footprint): per sample
+  // kFootprintSubsamples x (wi xyz, wo xyz, weight x cos ratio) in the
+  // frames of its pixels' normals, fixed by the geometry (computed once);
+  // the sample's prediction is the weighted sum of f over them, times geom.
+  static constexpr int kPairStride = 7;
+  std::vector<double> pairs;
+  bool HasFootprint() const { return !pairs.empty(); }
+  const double* pairs_of(int64_t i) const {
+    return pairs.data() + i * kPairStride * SampleSet::kFootprintSubsamples;
+  }
 
   int64_t size() const { return static_cast<int64_t>(values.size()) / kStride; }
   const double* row(int64_t i) const { return values.data() + i * kStride; }

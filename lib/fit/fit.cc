@@ -101,7 +101,14 @@ std::pair<double, double> MeanLoss(const ModelSpec& spec, const std::vector<doub
   double sum = 0, sum2 = 0;
   for (int64_t i = begin; i < end; ++i) {
     const double* row = packed.row(i);
-    const Rgb f = EvalModelD(spec, params.data(), Vec3(row[0], row[1], row[2]), Vec3(row[3], row[4], row[5]));
+    Rgb f = Rgb::Zero();
+    if (packed.HasFootprint()) {
+      const double* q = packed.pairs_of(i);
+      for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, q += PackedSamples::kPairStride)
+        if (q[6] != 0) f += q[6] * EvalModelD(spec, params.data(), Vec3(q[0], q[1], q[2]), Vec3(q[3], q[4], q[5]));
+    } else {
+      f = EvalModelD(spec, params.data(), Vec3(row[0], row[1], row[2]), Vec3(row[3], row[4], row[5]));
+    }
     for (int c = 0; c < 3; ++c) {
       const double r = f[c] * row[6] - row[7 + c];
       const double l = robust_scale > 0 ? robust_scale * robust_scale * std::log1p(r * r / (robust_scale * robust_scale))

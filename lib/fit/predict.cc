@@ -10,7 +10,18 @@ namespace svbrdf {
 Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& samples, int64_t s) {
   const Vec3 wi(samples.wi[0][s], samples.wi[1][s], samples.wi[2][s]);
   const Vec3 wo(samples.wo[0][s], samples.wo[1][s], samples.wo[2][s]);
-  return EvalModelD(spec, params, wi, wo) * static_cast<double>(samples.geom[s]);
+  if (!samples.HasFootprint()) return EvalModelD(spec, params, wi, wo) * static_cast<double>(samples.geom[s]);
+  // The lookup-weighted mean over its pixels' normals (SampleSet::footprint).
+  Rgb sum = Rgb::Zero();
+  const float* fp = &samples.footprint[size_t(s) * 3 * SampleSet::kFootprintSubsamples];
+  for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, fp += 3) {
+    if (!(fp[2] > 0)) continue;
+    Vec3 wi_t, wo_t;
+    double ratio;
+    if (TiltedSampleDirections(wi, wo, fp[0], fp[1], &wi_t, &wo_t, &ratio))
+      sum += (fp[2] * ratio) * EvalModelD(spec, params, wi_t, wo_t);
+  }
+  return sum * static_cast<double>(samples.geom[s]);
 }
 
 double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& samples,

@@ -29,6 +29,8 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: max foreign share must be in [0, 1], got ", max_foreign_share));
   if (!(border_texel_max_offset >= 0 && std::isfinite(border_texel_max_offset)))
     throw Error(Msg("gather: border texel max offset must be finite and >= 0 texels, got ", border_texel_max_offset));
+  if (footprint_subsamples < 0 || footprint_subsamples > 8)
+    throw Error(Msg("gather: footprint subsamples must be in [0, 8] rays per pixel side, got ", footprint_subsamples));
   if (probe_rays < 0 || probe_rays > 8)
     throw Error(Msg("gather: probe rays must be in [0, 8] per pixel side, got ", probe_rays));
   if (!(max_unlit_share >= 0 && max_unlit_share <= 1))
@@ -80,6 +82,7 @@ struct Record {
   uint8_t reason = kOutsideImage;
   bool signal = false;  // a channel above the noise floor
   float wi[3], wo[3], geom, y[3];
+  float footprint[3 * SampleSet::kFootprintSubsamples] = {};  // GatherOptions::footprint_subsamples
   SampleProbe probe;
 };
 
@@ -160,6 +163,48 @@ bool FootprintNormal(const RayTracer& tracer, const Camera& cam, const Rigid3& w
   if (!(total > 0) || foreign > max_foreign_share * total) return false;
   *mean = sum / (total - foreign);
   return mean->norm() > 1e-6;
+}
+
+// GatherOptions::footprint_subsamples: per pixel of the lookup (in
+// ForEachLookupRay's order) the mean shading normal of its rays that meet
+// this patch (within `tolerance` of x), as a tilt of `frame`, and the
+// lookup weight of those rays; out: SampleSet::footprint's entries of one
+// sample. Pixels whose rays all miss the patch, or whose mean normal faces
+// away from the frame's, get weight 0; the others' weights are scaled to
+// sum to 1. Returns false when no pixel is left.
+bool FootprintSubsamples(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
+                         const Vec3& x, const Frame& frame, double tolerance, double px, double py, int n,
+                         float* out) {
+  constexpr int kPixels = SampleSet::kFootprintSubsamples;
+  Vec3 normal[kPixels] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  double weight[kPixels] = {0, 0, 0, 0};
+  int ray = 0;
+  // ForEachLookupRay skips pixels of weight 0; its rays come n^2 per pixel, so
+  // count them per pixel from the pixels' weights.
+  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
+  int pixel_of_ray[4 * 64];
+  for (int p = 0, k = 0; p < kPixels; ++p) {
+    const double w = ((p & 1) ? fx : 1 - fx) * ((p & 2) ? fy : 1 - fy);
+    if (w > 0)
+      for (int j = 0; j < n * n; ++j) pixel_of_ray[k++] = p;
+  }
+  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h) {
+    const int p = pixel_of_ray[ray++];
+    if (!hit || (tracer.Position(h) - x).norm() > tolerance) return;
+    normal[p] += w * tracer.ShadingNormal(h);
+    weight[p] += w;
+  });
+  double total = 0;
+  for (int p = 0; p < kPixels; ++p) {
+    const Vec3 m = frame.ToLocal(normal[p]);
+    if (!(weight[p] > 0) || !(m.z() > 0.2 * m.norm())) weight[p] = 0;
+    out[3 * p] = weight[p] > 0 ? float(m.x() / m.z()) : 0.f;
+    out[3 * p + 1] = weight[p] > 0 ? float(m.y() / m.z()) : 0.f;
+    total += weight[p];
+  }
+  if (!(total > 0)) return false;
+  for (int p = 0; p < kPixels; ++p) out[3 * p + 2] = float(weight[p] / total);
+  return true;
 }
 
 }  // namespace
@@ -302,6 +347,12 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         ns = mean.normalized();
         if (ns.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
       }
+      if (options.footprint_subsamples > 0) {
+        const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
+        if (!FootprintSubsamples(tracer, cam, world_from_cam, eye, x, Frame::FromNormalTangent(ns, tx.tangent),
+                                 tolerance, px.x(), px.y(), options.footprint_subsamples, r.footprint))
+          return void(r.reason = kOccluded);
+      }
       const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
       if (ns.dot(ls.wi) < options.min_cos) return void(r.reason = kUnlit);
       const double cos_i = n.dot(ls.wi);
@@ -417,6 +468,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   for (int k = 0; k < 3; ++k) ss.wi[k].resize(st.kept), ss.wo[k].resize(st.kept), ss.y[k].resize(st.kept);
   std::vector<int64_t> cursor(ss.texel_begin.begin(), ss.texel_begin.end() - 1);
   if (options.probe_rays > 0) out.probes.resize(st.kept);
+  constexpr int kFp = 3 * SampleSet::kFootprintSubsamples;
+  if (options.footprint_subsamples > 0) ss.footprint.resize(size_t(st.kept) * kFp);
   for (size_t i = 0; i < per_image.size(); ++i)
     for (const auto& [t, r] : per_image[i]) {
       const int64_t s = cursor[t]++;
@@ -424,6 +477,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       ss.texel[s] = t;
       ss.image[s] = static_cast<int32_t>(i);
       ss.geom[s] = r.geom;
+      if (options.footprint_subsamples > 0) std::copy(r.footprint, r.footprint + kFp, ss.footprint.begin() + s * kFp);
       for (int k = 0; k < 3; ++k) ss.wi[k][s] = r.wi[k], ss.wo[k][s] = r.wo[k], ss.y[k][s] = r.y[k];
     }
   return out;

@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/types.h"
+
 namespace svbrdf {
 
 struct SampleSet {
@@ -22,11 +24,28 @@ struct SampleSet {
   std::vector<float> wi[3], wo[3];        // unit directions, local frame
   std::vector<float> geom;
   std::vector<float> y[3];
+  // Footprint sub-samples (GatherOptions::footprint_subsamples): the photo
+  // value is a bilinear lookup of four pixels, each integrating the surface
+  // over its area, so the sample is predicted as the lookup-weighted mean of
+  // the BRDF under each pixel's mean shading normal. Per sample
+  // kFootprintSubsamples entries of (a, b, w): the pixel's normal as the
+  // tilt normalize(a, b, 1) of the sample's local frame, and its weight (the
+  // weights sum to 1; w = 0: unused). Empty: the texel-centre normal only.
+  static constexpr int kFootprintSubsamples = 4;
+  std::vector<float> footprint;  // 3 * kFootprintSubsamples floats per sample
+  bool HasFootprint() const { return !footprint.empty(); }
 
   int64_t size() const { return static_cast<int64_t>(geom.size()); }
   void Reserve(int64_t n);
   void Push(int32_t t, int32_t img, const float wi_[3], const float wo_[3], float g, const float y_[3]);
 };
+
+// Directions of sample s's wi, wo (local frame) in the frame of the tilted
+// normal normalize(a, b, 1) (tangent: x made orthogonal to it, as relight's
+// dP/du) and the ratio cos_i(tilted) / cos_i(local). False when the light or
+// the viewer is below the tilted surface.
+bool TiltedSampleDirections(const Vec3& wi, const Vec3& wo, double a, double b, Vec3* wi_t, Vec3* wo_t,
+                            double* cos_ratio);
 
 // The samples s with keep[s] != 0 (keep.size() == samples.size()), still sorted by texel.
 SampleSet KeepSamples(const SampleSet& samples, const std::vector<char>& keep);

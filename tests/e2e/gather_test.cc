@@ -135,6 +135,60 @@ TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
   fs::remove_all(dir);
 }
 
+// The footprint sub-samples (GatherOptions::footprint_subsamples) on the same
+// bumpy sphere: the true material averaged over the four lookup pixels'
+// normals (as PredictSample does) describes the samples better than at the
+// texel-centre normal; the weights sum to 1.
+TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_subs_" + std::to_string(getpid()))).string();
+  const SynthOptions o = BumpySphereCapture(dir);
+  const Scene scene = LoadScene(dir + "/cap/scene.json");
+  const Material gt = LoadMaterial(dir + "/cap/gt");
+  const MaterialShader shader(gt);
+  GatherOptions go;
+  go.texture_size = o.material.texture_size;
+  go.progress = false;
+  EXPECT_FALSE(Gather(scene, go).samples.HasFootprint());
+  go.footprint_subsamples = 2;
+  const GatherResult g = Gather(scene, go);
+  ASSERT_EQ(g.samples.footprint.size(), size_t(g.samples.size()) * 3 * SampleSet::kFootprintSubsamples);
+  std::vector<double> rel_centre, rel_footprint;
+  for (int64_t i = 0; i < g.samples.size(); ++i) {
+    const Texel& tx = g.atlas.texels[g.samples.texel[i]];
+    if (!tx.interior) continue;
+    const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
+    const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
+    const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
+    const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
+    const float* fp = &g.samples.footprint[size_t(i) * 3 * SampleSet::kFootprintSubsamples];
+    Rgb sum = Rgb::Zero();
+    double weights = 0;
+    for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, fp += 3) {
+      weights += fp[2];
+      Vec3 wi_t, wo_t;
+      double ratio;
+      if (!(fp[2] > 0) || !TiltedSampleDirections(wi, wo, fp[0], fp[1], &wi_t, &wo_t, &ratio)) continue;
+      const Frame tilted = Frame::FromNormalTangent(f.ToWorld(Vec3(fp[0], fp[1], 1).normalized()), tx.tangent);
+      sum += fp[2] * ratio * shader.Eval(uv, tilted, f.ToWorld(wi), f.ToWorld(wo));
+    }
+    EXPECT_NEAR(weights, 1.0, 1e-5);
+    const Rgb footprint = sum * g.samples.geom[i], centre = TruthPrediction(g, shader, i);
+    const double y = (g.samples.y[0][i] + g.samples.y[1][i] + g.samples.y[2][i]) / 3;
+    if (y <= 1e-3) continue;
+    rel_centre.push_back(std::abs(centre.mean() - y) / y);
+    rel_footprint.push_back(std::abs(footprint.mean() - y) / y);
+  }
+  ASSERT_GT(rel_centre.size(), 1000u);
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double centre = median(rel_centre), footprint = median(rel_footprint);
+  std::printf("median relative sample error: texel-centre normal %.4f, footprint sub-samples %.4f\n", centre, footprint);
+  EXPECT_LT(footprint, 0.6 * centre);
+  fs::remove_all(dir);
+}
+
 // Samples whose pixel footprint spans a large turn of the mesh normal are
 // the ones the texel-centre frame describes worst; rejecting them
 // (GatherOptions::max_footprint_turn_deg) leaves samples that agree better
