@@ -59,6 +59,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--footprint-subsamples", job->gather.footprint_subsamples,
                 "n x n rays per pixel of each sample's lookup give each pixel's mean normal; predictions average the\n"
                 "BRDF over the four pixels as the photo does (0 = off: the texel-centre normal)");
+  c->add_option("--footprint-min-tilt", job->gather.footprint_min_tilt_deg,
+                "--footprint-subsamples are kept when the median pixel normal's tilt is at least this (degrees)");
   c->add_option("--probe-rays", job->gather.probe_rays,
                 "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off)");
   c->add_option("--max-unlit-share", job->gather.max_unlit_share,

@@ -29,6 +29,8 @@ void GatherOptions::Check() const {
     throw Error(Msg("gather: max foreign share must be in [0, 1], got ", max_foreign_share));
   if (!(border_texel_max_offset >= 0 && std::isfinite(border_texel_max_offset)))
     throw Error(Msg("gather: border texel max offset must be finite and >= 0 texels, got ", border_texel_max_offset));
+  if (!(footprint_min_tilt_deg >= 0 && footprint_min_tilt_deg <= 90))
+    throw Error(Msg("gather: footprint min tilt must be in [0, 90] degrees, got ", footprint_min_tilt_deg));
   if (footprint_subsamples < 0 || footprint_subsamples > 8)
     throw Error(Msg("gather: footprint subsamples must be in [0, 8] rays per pixel side, got ", footprint_subsamples));
   if (probe_rays < 0 || probe_rays > 8)
@@ -52,6 +54,9 @@ std::string GatherStats::Report(bool with_warnings) const {
      << " occluded, " << outside_mask << " outside mask, " << unlit << " unlit/grazing light, " << shadowed
      << " shadowed, " << saturated << " saturated, " << invalid << " non-finite/negative pixel";
   if (turning > 0) os << ", " << turning << " normal turning within the pixel";
+  if (footprint_median_tilt_deg > 0)
+    os << "; footprint sub-samples " << (footprint_kept ? "kept" : "off") << " (median pixel-normal tilt "
+       << footprint_median_tilt_deg << " deg)";
   if (probe_foreign > 0) os << ", " << probe_foreign << " footprint on another surface";
   if (probe_unlit > 0) os << ", " << probe_unlit << " footprint partly unlit";
   if (contrast > 0) os << ", " << contrast << " photo changing steeply within the lookup";
@@ -480,6 +485,22 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       if (options.footprint_subsamples > 0) std::copy(r.footprint, r.footprint + kFp, ss.footprint.begin() + s * kFp);
       for (int k = 0; k < 3; ++k) ss.wi[k][s] = r.wi[k], ss.wo[k][s] = r.wo[k], ss.y[k][s] = r.y[k];
     }
+  if (options.footprint_subsamples > 0) {
+    // GatherOptions::footprint_min_tilt_deg: the sub-samples only where the
+    // normal turns within the pixels.
+    std::vector<float> tilt(ss.size());
+    for (int64_t s = 0; s < ss.size(); ++s) {
+      float worst = 0;
+      const float* fp = &ss.footprint[size_t(s) * kFp];
+      for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j)
+        if (fp[3 * j + 2] > 0) worst = std::max(worst, std::hypot(fp[3 * j], fp[3 * j + 1]));
+      tilt[s] = worst;
+    }
+    std::nth_element(tilt.begin(), tilt.begin() + tilt.size() / 2, tilt.end());
+    st.footprint_median_tilt_deg = std::atan(double(tilt[tilt.size() / 2])) * 180 / kPi;
+    st.footprint_kept = st.footprint_median_tilt_deg >= options.footprint_min_tilt_deg;
+    if (!st.footprint_kept) ss.footprint.clear();
+  }
   return out;
 }
 

@@ -48,13 +48,12 @@ struct TexelCost {
     for (size_t i = 0; i < samples.size(); ++i) {
       const TexelSample& s = samples[i];
       T* ri = r + 3 * i;
-      Vec3T<T> wi, wo;
-      T ratio;
       T rgb[3] = {T(0), T(0), T(0)};
-      if (normals::TiltedDirections(ab, s, &wi, &wo, &ratio)) {
-        EvalModel(*spec, theta, wi, wo, rgb);
-        for (int c = 0; c < 3; ++c) rgb[c] *= w[c] * ratio * s.geom;
-      }
+      normals::ForEachSampleFrame(ab, s, [&](const Vec3T<T>& wi, const Vec3T<T>& wo, const T& shading) {
+        T f[3];
+        EvalModel(*spec, theta, wi, wo, f);
+        for (int c = 0; c < 3; ++c) rgb[c] += f[c] * w[c] * shading;
+      });
       for (int c = 0; c < 3; ++c) ri[c] = sqrt_v[i] * (rgb[c] - s.y[c]);
       normals::ApplyCauchy(cauchy, ri);
     }
@@ -119,6 +118,7 @@ std::vector<BasisPolishReport> PolishBasisWithTilts(const SampleSet& s, const At
         TexelSample ts;
         for (int c = 0; c < 3; ++c) ts.wi[c] = s.wi[c][i], ts.wo[c] = s.wo[c][i], ts.y[c] = s.y[c][i];
         ts.geom = s.geom[i];
+        ts.SetFootprint(s, i);
         cost->samples.push_back(ts);
         cost->sqrt_v.push_back(std::sqrt(noise(ts.y)));
       }

@@ -167,18 +167,15 @@ struct NormalJointCost {
       for (int s = 0; s < ns; ++s) {
         const TexelSample& ts = (*samples)[src.members[s]];
         for (int c = 0; c < 3; ++c) y[s * 3 + c] = ts.y[c];
-        Vec3T<T> wi, wo;
-        T ratio;
         T* p = &P[size_t(s) * m * 3];
-        if (!TiltedDirections(ab, ts, &wi, &wo, &ratio)) {
-          for (int j = 0; j < 3 * m; ++j) p[j] = T(0);
-          continue;
-        }
-        const T shading = ratio * ts.geom;
-        for (int j = 0; j < m; ++j) {
-          EvalBasis(src.basis[j], wi, wo, p + 3 * j);
-          for (int c = 0; c < 3; ++c) p[3 * j + c] *= shading;
-        }
+        for (int j = 0; j < 3 * m; ++j) p[j] = T(0);
+        ForEachSampleFrame(ab, ts, [&](const Vec3T<T>& wi, const Vec3T<T>& wo, const T& shading) {
+          for (int j = 0; j < m; ++j) {
+            T f[3];
+            EvalBasis(src.basis[j], wi, wo, f);
+            for (int c = 0; c < 3; ++c) p[3 * j + c] += f[c] * shading;
+          }
+        });
       }
       T w[kMaxSupport * 3];
       SolveSourceWeights(src, ns, P.data(), y.data(), w);

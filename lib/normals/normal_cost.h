@@ -22,6 +22,7 @@
 #include "brdf/model.h"
 #include "brdf/model_eval.h"
 #include "core/error.h"
+#include "gather/samples.h"
 
 namespace svbrdf::normals {
 
@@ -34,6 +35,20 @@ struct TexelSample {
   // texel's fit is predicted under the neighbour's normal relative to the
   // texel's (0 for the texel's own samples).
   double offset[2] = {0, 0};
+  // Footprint sub-samples (SampleSet::footprint): the sample is the weighted
+  // mean over its lookup pixels' normals, each a tilt (a, b) of the mesh
+  // frame added to the texel's; num_sub = 0: the texel's normal only.
+  static constexpr int kMaxSub = SampleSet::kFootprintSubsamples;
+  double sub[kMaxSub][3] = {};  // a, b, weight
+  int num_sub = 0;
+  // Copies sample i's sub-samples (those of weight > 0) from `set`.
+  void SetFootprint(const SampleSet& set, int64_t i) {
+    num_sub = 0;
+    if (!set.HasFootprint()) return;
+    const float* fp = &set.footprint[size_t(i) * 3 * kMaxSub];
+    for (int j = 0; j < kMaxSub; ++j, fp += 3)
+      if (fp[2] > 0) sub[num_sub][0] = fp[0], sub[num_sub][1] = fp[1], sub[num_sub][2] = fp[2], ++num_sub;
+  }
 };
 
 // A basis material with the texel's mixing weights per channel.
@@ -50,9 +65,10 @@ constexpr int kMaxModelParams = 64;
 // the ratio cos_i(n) / cos_i(n0). Returns false when the light or the viewer
 // is below the tilted surface (the sample then predicts black).
 template <class T>
-bool TiltedDirections(const T* ab_texel, const TexelSample& s, Vec3T<T>* wi, Vec3T<T>* wo, T* cos_ratio) {
+bool TiltedDirections(const T* ab_texel, const TexelSample& s, Vec3T<T>* wi, Vec3T<T>* wo, T* cos_ratio,
+                      double extra_a = 0, double extra_b = 0) {
   using std::sqrt;
-  const T ab[2] = {ab_texel[0] + s.offset[0], ab_texel[1] + s.offset[1]};
+  const T ab[2] = {ab_texel[0] + (s.offset[0] + extra_a), ab_texel[1] + (s.offset[1] + extra_b)};
   const T inv = T(1) / sqrt(ab[0] * ab[0] + ab[1] * ab[1] + T(1));
   const Vec3T<T> n(ab[0] * inv, ab[1] * inv, inv);
   // Tangent: (1, 0, 0) made orthogonal to n; |t|^2 = 1 - n_x^2 > 0 since n_z > 0.
@@ -64,6 +80,23 @@ bool TiltedDirections(const T* ab_texel, const TexelSample& s, Vec3T<T>* wi, Vec
   *wo = Vec3T<T>(lo.dot(t), lo.dot(b), lo.dot(n));
   *cos_ratio = wi->z() / s.wi[2];
   return wi->z() > T(0) && wo->z() > T(0);
+}
+
+// Calls frame(wi, wo, shading) for each direction pair the sample is the
+// weighted mean over under the texel's normal (a, b): its footprint
+// sub-samples' tilts added to (a, b) (TexelSample::sub), or the texel's
+// normal alone; shading = the pair's weight x cos ratio x geom. Pairs below
+// the tilted horizon are skipped (they predict black).
+template <class T, class Frame>
+void ForEachSampleFrame(const T* ab, const TexelSample& s, Frame&& frame) {
+  Vec3T<T> wi, wo;
+  T ratio;
+  if (s.num_sub == 0) {
+    if (TiltedDirections(ab, s, &wi, &wo, &ratio)) frame(wi, wo, T(ratio * s.geom));
+    return;
+  }
+  for (int j = 0; j < s.num_sub; ++j)
+    if (TiltedDirections(ab, s, &wi, &wo, &ratio, s.sub[j][0], s.sub[j][1])) frame(wi, wo, T(ratio * (s.sub[j][2] * s.geom)));
 }
 
 // Value of basis k alone (weight 1) for the directions wi, wo of a sample
@@ -79,14 +112,12 @@ void EvalBasis(const WeightedBasis& basis, const Vec3T<T>& wi, const Vec3T<T>& w
 // Prediction of basis k alone (weight 1) for sample s under normal (a, b).
 template <class T>
 void PredictBasis(const WeightedBasis& basis, const TexelSample& s, const T* ab, T* rgb) {
-  Vec3T<T> wi, wo;
-  T ratio;
-  if (!TiltedDirections(ab, s, &wi, &wo, &ratio)) {
-    rgb[0] = rgb[1] = rgb[2] = T(0);
-    return;
-  }
-  EvalBasis(basis, wi, wo, rgb);
-  for (int c = 0; c < 3; ++c) rgb[c] *= ratio * s.geom;
+  rgb[0] = rgb[1] = rgb[2] = T(0);
+  ForEachSampleFrame(ab, s, [&](const Vec3T<T>& wi, const Vec3T<T>& wo, const T& shading) {
+    T f[3];
+    EvalBasis(basis, wi, wo, f);
+    for (int c = 0; c < 3; ++c) rgb[c] += f[c] * shading;
+  });
 }
 
 // Residuals prediction - measurement (3 channels) of one sample under the
@@ -101,18 +132,14 @@ struct NormalSampleCost {
   template <class T>
   bool operator()(const T* ab, T* residual) const {
     T sum[3] = {T(0), T(0), T(0)};
-    // The tilted frame once per sample, shared by the basis materials.
-    Vec3T<T> wi, wo;
-    T ratio;
-    if (TiltedDirections(ab, *sample, &wi, &wo, &ratio)) {
+    // Each tilted frame once per sample, shared by the basis materials.
+    ForEachSampleFrame(ab, *sample, [&](const Vec3T<T>& wi, const Vec3T<T>& wo, const T& shading) {
       for (const WeightedBasis& b : *basis) {
         T rgb[3];
         EvalBasis(b, wi, wo, rgb);
-        for (int c = 0; c < 3; ++c) sum[c] += b.w[c] * rgb[c];
+        for (int c = 0; c < 3; ++c) sum[c] += b.w[c] * rgb[c] * shading;
       }
-      const T shading = ratio * sample->geom;
-      for (int c = 0; c < 3; ++c) sum[c] *= shading;
-    }
+    });
     for (int c = 0; c < 3; ++c) residual[c] = scale * (sum[c] - sample->y[c]);
     return true;
   }

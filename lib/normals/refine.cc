@@ -128,6 +128,7 @@ class Refiner {
       TexelSample ts;
       for (int c = 0; c < 3; ++c) ts.wi[c] = s_.wi[c][i], ts.wo[c] = s_.wo[c][i], ts.y[c] = s_.y[c][i];
       ts.geom = s_.geom[i];
+      ts.SetFootprint(s_, i);
       out.push_back(ts);
     }
     return out;
@@ -659,6 +660,10 @@ SampleSet ReorientSamples(const SampleSet& s, const std::vector<Vec2>& tilt) {
       const float fwo[3] = {float(wo.x()), float(wo.y()), float(wo.z())};
       const float y[3] = {s.y[0][i], s.y[1][i], s.y[2][i]};
       out.Push(t, s.image[i], fwi, fwo, float(s.geom[i] * ratio), y);
+      // The pixels' normals keep their tilts relative to the refined normal.
+      if (s.HasFootprint())
+        out.footprint.insert(out.footprint.end(), s.footprint.begin() + 3 * SampleSet::kFootprintSubsamples * i,
+                             s.footprint.begin() + 3 * SampleSet::kFootprintSubsamples * (i + 1));
     }
     out.texel_begin.push_back(out.size());
   }

@@ -148,9 +148,17 @@ TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
   GatherOptions go;
   go.texture_size = o.material.texture_size;
   go.progress = false;
+  go.footprint_subsamples = 0;
   EXPECT_FALSE(Gather(scene, go).samples.HasFootprint());
   go.footprint_subsamples = 2;
+  go.footprint_min_tilt_deg = 90;  // the median tilt is below: dropped
+  const GatherResult smooth = Gather(scene, go);
+  EXPECT_FALSE(smooth.samples.HasFootprint());
+  EXPECT_FALSE(smooth.stats.footprint_kept);
+  go.footprint_min_tilt_deg = GatherOptions().footprint_min_tilt_deg;
   const GatherResult g = Gather(scene, go);
+  EXPECT_TRUE(g.stats.footprint_kept);
+  EXPECT_GT(g.stats.footprint_median_tilt_deg, go.footprint_min_tilt_deg);
   ASSERT_EQ(g.samples.footprint.size(), size_t(g.samples.size()) * 3 * SampleSet::kFootprintSubsamples);
   std::vector<double> rel_centre, rel_footprint;
   for (int64_t i = 0; i < g.samples.size(); ++i) {
