@@ -46,6 +46,12 @@ struct WeightModel {
   double prior_samples = 1.0;
   double smooth_samples = 3.0;
   bool per_material_prior = false;
+  // Prior on the sum of a texel's weights (per channel) towards 1, in samples
+  // of the texel's mean squared prediction per material: the texel is a blend
+  // of the basis materials as fitted (a partition of unity), not at a
+  // brightness of its own. 0: free brightness (the cluster's material at the
+  // brightness that fits the texel best is the prior's target).
+  double unit_sum_samples = 0.0;
   std::string Label() const;
 };
 

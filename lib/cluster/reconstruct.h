@@ -120,6 +120,7 @@ struct ReconstructOptions {
   // zones are as wide as the object makes them, in texels as the atlas
   // makes them (default preset: held-out RMSE 0.0045 at radius 2, 0.0020 at 8).
   std::vector<int> weight_radii = {2, 4, 8};
+  std::vector<double> weight_unit_sum_samples = {0.0, 1.0, 1000.0};
   int min_samples = 3;           // per texel, for confident weights (confidence map)
   // Per texel, to take part in fits and in the split search's held-out
   // measure. One: cluster fits pool all their texels, and a texel's weights
@@ -179,6 +180,10 @@ struct SvbrdfEstimate {
   std::vector<float> weights;     // texel-major: [t][k][c]
   bool per_channel_weights = false;
   int weight_radius = 0;          // materials of clusters this many texels away mix (step 4)
+  // The chosen weight model's prior on the sum of a texel's weights towards 1
+  // (WeightModel::unit_sum_samples); weights re-solved later (normal
+  // refinement) keep it. 0: free brightness.
+  double weight_unit_sum = 0;
   // Region-interior smoothing of the weights chosen by held-out error
   // (SmoothInteriorWeights, weights.h); 0 = none. Applied to `weights`, and
   // again by the pipeline to weights re-solved with refined normals.

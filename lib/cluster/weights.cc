@@ -17,7 +17,8 @@
 namespace svbrdf {
 
 std::string WeightModel::Label() const {
-  return Msg(per_channel ? "per channel" : "scalar", ", radius ", radius);
+  return Msg(per_channel ? "per channel" : "scalar", ", radius ", radius,
+             unit_sum_samples > 0 ? Msg(", unit sum ", unit_sum_samples) : std::string());
 }
 
 std::vector<uint8_t> Clustering::ClusterDistances() const {
@@ -77,7 +78,7 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
       ++nfit;
       for (int c = 0; c < 3; ++c) yp += pred_[k0][3 * i + c] * s_.y[c][i], pp += Sq(pred_[k0][3 * i + c]);
     }
-    w0[k0] = pp > 0 ? BrightnessScale(yp, pp) : 1.0;
+    w0[k0] = pp > 0 && !(m.unit_sum_samples > 0) ? BrightnessScale(yp, pp) : 1.0;
     // Second pass: the prior is the mean of the neighbours' first-pass
     // weights (a smoothness prior). Neighbours without first-pass weights
     // (too few training samples when fitting on the training set) do not
@@ -109,9 +110,13 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
       lambda[k] = prior_samples * (m.per_material_prior ? own : trace / K) / per_sample + 1e-12;
     }
     const Eigen::VectorXd mean_target = (w0c[0] + w0c[1] + w0c[2]) / 3.0;
+    // The unit-sum prior mu (sum_k w_k - 1)^2 per channel (the materials
+    // that may not mix drop out below with their rows and columns).
+    const double mu = m.unit_sum_samples * trace / K / per_sample;
     for (int c = 0; c < 3; ++c) {
       AtA[c].diagonal() += lambda;
       Atb[c].col(0) += lambda.cwiseProduct(m.per_channel ? w0c[c] : mean_target);
+      if (mu > 0) AtA[c].array() += mu, Atb[c].array() += mu;
     }
     // Only materials of the clusters within `m.radius` texels mix: inside
     // a region one material (at a free brightness), in a blend zone or at a
@@ -215,9 +220,11 @@ constexpr double kSmoothSamples = 0.3;
 
 std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o) {
   std::vector<WeightModel> out;
+  for (double unit_sum : o.weight_unit_sum_samples)
   for (int radius : o.weight_radii)
     for (bool per_channel : {false, true}) {
       WeightModel m;
+      m.unit_sum_samples = unit_sum;
       m.per_channel = per_channel;
       m.radius = radius;
       m.smooth = true;
@@ -278,6 +285,7 @@ WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const S
   const WeightModel& m = candidates[best];
   est->per_channel_weights = m.per_channel;
   est->weight_radius = m.radius;
+  est->weight_unit_sum = m.unit_sum_samples;
   est->heldout_rmse = rmse[best];
   for (size_t j = 0; j < scored; ++j)
     if (candidates[j].radius == m.radius)

@@ -13,7 +13,7 @@ namespace svbrdf {
 std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o);
 
 // Evaluates every candidate on the held-out samples and returns the best;
-// records the choice in `est` (per_channel_weights, weight_radius,
+// records the choice in `est` (per_channel_weights, weight_radius, weight_unit_sum,
 // heldout_rmse and the scalar / per-channel errors at the chosen radius).
 WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
 

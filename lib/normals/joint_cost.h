@@ -38,6 +38,9 @@ struct WeightSource {
   std::vector<WeightedBasis> basis;
   // Prior strength in samples' worth: lambda = prior trace(A) / (m n), as refine.cc's weight step.
   double prior = 1.0;
+  // Prior on the sum of the weights towards 1 (per system), in samples' worth
+  // as `prior`: SvbrdfEstimate::weight_unit_sum. 0: free brightness.
+  double unit_sum = 0.0;
   bool per_channel = false;     // one weight per channel, else one per material
   std::vector<int> members;     // indices into the pooled samples
 };
@@ -79,7 +82,7 @@ void SolveSpd(int m, T* A, T* b) {
 // Least-squares weights of one source for per-sample predictions P
 // (sample-major: P[(s * m + j) * 3 + c], material j, channel c) and
 // measurements y (y[s * 3 + c]): the non-negative solution of
-//   min |P w - y|^2 + lambda |w - w0|^2
+//   min |P w - y|^2 + lambda |w - w0|^2 + mu (sum_j w_j - 1)^2
 // found in double, then re-solved in T on its active set (positive weights)
 // so that Jets carry the weights' derivatives. w: [j * 3 + c].
 template <class T>
@@ -104,11 +107,16 @@ void SolveSourceWeights(const WeightSource& src, int n, const T* P, const double
       trace += A[j * m + j];
     }
     const T lambda = src.prior * trace / double(m * std::max(1, n)) + 1e-12;
+    const T mu = src.unit_sum * trace / double(m * std::max(1, n));
     for (int j = 0; j < m; ++j) {
       const double target = src.per_channel ? src.basis[j].w[q]
                                             : (src.basis[j].w[0] + src.basis[j].w[1] + src.basis[j].w[2]) / 3.0;
       A[j * m + j] += lambda;
       b[j] += lambda * target;
+      if (src.unit_sum > 0) {
+        b[j] += mu;
+        for (int k = 0; k < m; ++k) A[j * m + k] += mu;
+      }
     }
     // Active set from the double problem.
     Eigen::MatrixXd Ad(m, m);

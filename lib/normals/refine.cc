@@ -271,6 +271,7 @@ class Refiner {
       sources[j].basis = SupportBasis(u, weights_of(u));
       sources[j].prior = prior;
       sources[j].per_channel = est_.per_channel_weights;
+      sources[j].unit_sum = est_.weight_unit_sum;
     }
     for (size_t i = 0; i < fit.samples.size(); ++i) sources[fit.source[i]].members.push_back(int(i));
     if (sources[0].basis.empty()) return true;
@@ -320,8 +321,12 @@ class Refiner {
     const double n = double(fit.size());
     auto solve = [&](Eigen::MatrixXd A, Eigen::VectorXd b, const Eigen::VectorXd& target) {
       const double lambda = prior * A.trace() / (m * n) + 1e-12;
+      // The clustering's unit-sum prior (SvbrdfEstimate::weight_unit_sum), same scale.
+      const double mu = est_.weight_unit_sum * A.trace() / (m * n);
       A.diagonal().array() += lambda;
       b += lambda * target;
+      A.array() += mu;
+      b.array() += mu;
       return NnlsNormal(A, b);
     };
     if (est_.per_channel_weights) {

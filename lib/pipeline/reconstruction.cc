@@ -189,6 +189,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["merge"] = {{"merges", merge.merges}, {"tried", merge.lines}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
+  summary["weight_unit_sum"] = est.weight_unit_sum;
   summary["heldout_rmse"] = est.heldout_rmse;
   summary["texels_without_samples"] = est.texels_without_samples;
   summary["texels_filled_from_neighbours"] = est.texels_filled;
