@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "brdf/model.h"
+#include "fit/fit.h"
 #include "io/scene.h"
 #include "light/light.h"
 #include "raytrace/raytracer.h"
@@ -79,7 +80,9 @@ Residuals Compute(const GatherResult& g, const Material& truth) {
     const Vec3 wi(ss.wi[0][s], ss.wi[1][s], ss.wi[2][s]), wo(ss.wo[0][s], ss.wo[1][s], ss.wo[2][s]);
     Rgb f = Rgb::Zero();
     for (size_t k = 0; k < truth.basis.size(); ++k) {
-      const Rgb fk = EvalModelD(truth.basis[k].spec, truth.basis[k].params.data(), wi, wo);
+      // PredictSample includes the geometry factor and the footprint
+      // sub-samples when gathered (GatherOptions::footprint_subsamples).
+      const Rgb fk = PredictSample(truth.basis[k].spec, truth.basis[k].params.data(), ss, s) / double(ss.geom[s]);
       for (int c = 0; c < 3; ++c) f[c] += truth.weights[k].at(t.x, t.y, c) * fk[c];
     }
     double e2 = 0, p2 = 0;
@@ -190,7 +193,7 @@ void ReportFootprintPrediction(const GatherResult& g, const Scene& scene, const 
     rel_footprint.push_back(norm > 0 ? std::sqrt(e2) / norm : 0);
     sse_centre += r.abs2[s], sse_footprint += e2;
   }
-  std::printf("truth at the texel centre:        rel p50 %.4f p90 %.4f p99 %.4f, squared error %.4g (%zu samples)\n",
+  std::printf("truth as the fits predict it:     rel p50 %.4f p90 %.4f p99 %.4f, squared error %.4g (%zu samples)\n",
               Quantile(rel_centre, 0.5), Quantile(rel_centre, 0.9), Quantile(rel_centre, 0.99), sse_centre,
               rel_centre.size());
   std::printf("truth over the lookup's %dx%d rays: rel p50 %.4f p90 %.4f p99 %.4f, squared error %.4g\n", n, n,
@@ -211,6 +214,7 @@ int main(int argc, char** argv) try {
   ReconstructionJob job;
   job.scene_path = argv[1];
   job.gather.probe_rays = argc > 5 ? std::atoi(argv[5]) : 2;
+  if (const char* f = std::getenv("ORACLE_FOOTPRINT")) job.gather.footprint_subsamples = std::atoi(f);
   job.gather.threads = job.estimate.threads;
   job.estimate.fit.threads = job.estimate.threads;
   job.estimate.fit.seed = job.estimate.seed;
