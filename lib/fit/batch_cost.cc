@@ -193,7 +193,7 @@ PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int
         double ratio = 0;
         // A pair below the tilted horizon keeps weight 0 and the sample's own
         // directions (finite, evaluated but not counted).
-        if (fp[3 * j + 2] > 0 && TiltedSampleDirections(wi, wo, fp[3 * j], fp[3 * j + 1], &wi_t, &wo_t, &ratio))
+        if (fp[3 * j + 2] > 0 && TiltedSampleDirections(wi, wo, double(fp[3 * j]), double(fp[3 * j + 1]), &wi_t, &wo_t, &ratio))
           q[6] = fp[3 * j + 2] * ratio;
         else
           wi_t = wi, wo_t = wo;

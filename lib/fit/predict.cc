@@ -18,7 +18,7 @@ Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& 
     if (!(fp[2] > 0)) continue;
     Vec3 wi_t, wo_t;
     double ratio;
-    if (TiltedSampleDirections(wi, wo, fp[0], fp[1], &wi_t, &wo_t, &ratio))
+    if (TiltedSampleDirections(wi, wo, double(fp[0]), double(fp[1]), &wi_t, &wo_t, &ratio))
       sum += (fp[2] * ratio) * EvalModelD(spec, params, wi_t, wo_t);
   }
   return sum * static_cast<double>(samples.geom[s]);

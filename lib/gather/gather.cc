@@ -93,9 +93,10 @@ struct Record {
 
 // The rays of a footprint measure (GatherOptions::footprint_rays,
 // probe_rays): n x n stratified rays through each of the four pixels of the
-// bilinear lookup at continuous pixel (px, py). Calls visit(w, hit, h) for
-// each, w = the lookup's weight of the ray's pixel / n^2 (they sum to 1),
-// hit = whether the ray meets the mesh (then at h).
+// bilinear lookup at continuous pixel (px, py). Calls visit(w, hit, h, pixel)
+// for each, w = the lookup's weight of the ray's pixel / n^2 (they sum to 1),
+// hit = whether the ray meets the mesh (then at h), pixel = dx + 2 dy of
+// the ray's pixel in the lookup (0..3; pixels of weight 0 are skipped).
 template <class Visit>
 void ForEachLookupRay(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                       double px, double py, int n, Visit&& visit) {
@@ -110,7 +111,7 @@ void ForEachLookupRay(const RayTracer& tracer, const Camera& cam, const Rigid3& 
           const Vec2 p(x0 + dx + (sx + 0.5) / n, y0 + dy + (sy + 0.5) / n);
           Hit h;
           const bool hit = tracer.Intersect(eye, world_from_cam.rotation * cam.Unproject(p), &h);
-          visit(w, hit, h);
+          visit(w, hit, h, dx + 2 * dy);
         }
     }
 }
@@ -123,7 +124,7 @@ SampleProbe ProbeFootprint(const RayTracer& tracer, const Camera& cam, const Rig
                            const Light& light, const Vec3& x, const Vec3& n, double tolerance, double eps, double px,
                            double py, int rays) {
   double foreign = 0, unlit = 0, total = 0, min_cos = 1;
-  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, rays, [&](double w, bool hit, const Hit& h) {
+  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, rays, [&](double w, bool hit, const Hit& h, int) {
     total += w;
     const Vec3 q = hit ? tracer.Position(h) : Vec3::Zero();
     if (!hit || (q - x).norm() > tolerance) {
@@ -157,7 +158,7 @@ bool FootprintNormal(const RayTracer& tracer, const Camera& cam, const Rigid3& w
                      Vec3* mean) {
   Vec3 sum = Vec3::Zero();
   double foreign = 0, total = 0;
-  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h) {
+  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h, int) {
     total += w;
     if (!hit || (tracer.Position(h) - x).norm() > tolerance) {
       foreign += w;
@@ -183,18 +184,7 @@ bool FootprintSubsamples(const RayTracer& tracer, const Camera& cam, const Rigid
   constexpr int kPixels = SampleSet::kFootprintSubsamples;
   Vec3 normal[kPixels] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   double weight[kPixels] = {0, 0, 0, 0};
-  int ray = 0;
-  // ForEachLookupRay skips pixels of weight 0; its rays come n^2 per pixel, so
-  // count them per pixel from the pixels' weights.
-  const double fx = px - 0.5 - std::floor(px - 0.5), fy = py - 0.5 - std::floor(py - 0.5);
-  int pixel_of_ray[4 * 64];
-  for (int p = 0, k = 0; p < kPixels; ++p) {
-    const double w = ((p & 1) ? fx : 1 - fx) * ((p & 2) ? fy : 1 - fy);
-    if (w > 0)
-      for (int j = 0; j < n * n; ++j) pixel_of_ray[k++] = p;
-  }
-  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h) {
-    const int p = pixel_of_ray[ray++];
+  ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h, int p) {
     if (!hit || (tracer.Position(h) - x).norm() > tolerance) return;
     normal[p] += w * tracer.ShadingNormal(h);
     weight[p] += w;

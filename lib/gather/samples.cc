@@ -24,18 +24,6 @@ void SampleSet::Push(int32_t t, int32_t img, const float wi_[3], const float wo_
   }
 }
 
-bool TiltedSampleDirections(const Vec3& wi, const Vec3& wo, double a, double b, Vec3* wi_t, Vec3* wo_t,
-                            double* cos_ratio) {
-  const Vec3 n = Vec3(a, b, 1.0).normalized();
-  Vec3 t(1.0 - n.x() * n.x(), -n.x() * n.y(), -n.x() * n.z());  // x orthogonal to n; |t| > 0 as n.z > 0
-  t.normalize();
-  const Vec3 bt = n.cross(t);
-  *wi_t = Vec3(wi.dot(t), wi.dot(bt), wi.dot(n));
-  *wo_t = Vec3(wo.dot(t), wo.dot(bt), wo.dot(n));
-  *cos_ratio = wi.z() > 0 ? wi_t->z() / wi.z() : 0.0;
-  return wi_t->z() > 0 && wo_t->z() > 0;
-}
-
 SampleSet KeepSamples(const SampleSet& samples, const std::vector<char>& keep) {
   SampleSet out;
   out.num_texels = samples.num_texels;

@@ -9,6 +9,7 @@
 // for directional lights, times the spot/goniometric angular factor).
 // Residuals of fits are therefore in units of reflected radiance per unit light.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -40,12 +41,26 @@ struct SampleSet {
   void Push(int32_t t, int32_t img, const float wi_[3], const float wo_[3], float g, const float y_[3]);
 };
 
-// Directions of sample s's wi, wo (local frame) in the frame of the tilted
+// Directions wi, wo of a sample's local frame in the frame of the tilted
 // normal normalize(a, b, 1) (tangent: x made orthogonal to it, as relight's
 // dP/du) and the ratio cos_i(tilted) / cos_i(local). False when the light or
-// the viewer is below the tilted surface.
-bool TiltedSampleDirections(const Vec3& wi, const Vec3& wo, double a, double b, Vec3* wi_t, Vec3* wo_t,
-                            double* cos_ratio);
+// the viewer is below the tilted surface. Any scalar (ceres::Jet for the
+// normal fits, lib/normals/normal_cost.h).
+template <class T>
+bool TiltedSampleDirections(const Vec3T<T>& wi, const Vec3T<T>& wo, const T& a, const T& b, Vec3T<T>* wi_t,
+                            Vec3T<T>* wo_t, T* cos_ratio) {
+  using std::sqrt;
+  const T inv = T(1) / sqrt(a * a + b * b + T(1));
+  const Vec3T<T> n(a * inv, b * inv, inv);
+  // Tangent: (1, 0, 0) made orthogonal to n; |t|^2 = 1 - n_x^2 > 0 since n_z > 0.
+  Vec3T<T> t(T(1) - n.x() * n.x(), -n.x() * n.y(), -n.x() * n.z());
+  t /= sqrt(t.squaredNorm());
+  const Vec3T<T> bt = n.cross(t);
+  *wi_t = Vec3T<T>(wi.dot(t), wi.dot(bt), wi.dot(n));
+  *wo_t = Vec3T<T>(wo.dot(t), wo.dot(bt), wo.dot(n));
+  *cos_ratio = wi_t->z() / wi.z();
+  return wi_t->z() > T(0) && wo_t->z() > T(0);
+}
 
 // The samples s with keep[s] != 0 (keep.size() == samples.size()), still sorted by texel.
 SampleSet KeepSamples(const SampleSet& samples, const std::vector<char>& keep);

@@ -67,19 +67,9 @@ constexpr int kMaxModelParams = 64;
 template <class T>
 bool TiltedDirections(const T* ab_texel, const TexelSample& s, Vec3T<T>* wi, Vec3T<T>* wo, T* cos_ratio,
                       double extra_a = 0, double extra_b = 0) {
-  using std::sqrt;
-  const T ab[2] = {ab_texel[0] + (s.offset[0] + extra_a), ab_texel[1] + (s.offset[1] + extra_b)};
-  const T inv = T(1) / sqrt(ab[0] * ab[0] + ab[1] * ab[1] + T(1));
-  const Vec3T<T> n(ab[0] * inv, ab[1] * inv, inv);
-  // Tangent: (1, 0, 0) made orthogonal to n; |t|^2 = 1 - n_x^2 > 0 since n_z > 0.
-  Vec3T<T> t(T(1) - n.x() * n.x(), -n.x() * n.y(), -n.x() * n.z());
-  t /= sqrt(t.squaredNorm());
-  const Vec3T<T> b = n.cross(t);
   const Vec3T<T> li(T(s.wi[0]), T(s.wi[1]), T(s.wi[2])), lo(T(s.wo[0]), T(s.wo[1]), T(s.wo[2]));
-  *wi = Vec3T<T>(li.dot(t), li.dot(b), li.dot(n));
-  *wo = Vec3T<T>(lo.dot(t), lo.dot(b), lo.dot(n));
-  *cos_ratio = wi->z() / s.wi[2];
-  return wi->z() > T(0) && wo->z() > T(0);
+  return TiltedSampleDirections(li, lo, T(ab_texel[0] + (s.offset[0] + extra_a)),
+                                T(ab_texel[1] + (s.offset[1] + extra_b)), wi, wo, cos_ratio);
 }
 
 // Calls frame(wi, wo, shading) for each direction pair the sample is the

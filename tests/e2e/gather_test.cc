@@ -29,6 +29,26 @@ Rgb TruthPrediction(const GatherResult& g, const MaterialShader& shader, int64_t
   return shader.Eval(uv, f, f.ToWorld(wi), f.ToWorld(wo)) * g.samples.geom[i];
 }
 
+// The same averaged over the sample's footprint sub-samples (as
+// PredictSample does): each lookup pixel's normal as a tilt of the texel's.
+Rgb TruthFootprintPrediction(const GatherResult& g, const MaterialShader& shader, int64_t i) {
+  const Texel& tx = g.atlas.texels[g.samples.texel[i]];
+  const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
+  const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
+  const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
+  const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
+  const float* fp = &g.samples.footprint[size_t(i) * 3 * SampleSet::kFootprintSubsamples];
+  Rgb sum = Rgb::Zero();
+  for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, fp += 3) {
+    Vec3 wi_t, wo_t;
+    double ratio;
+    if (!(fp[2] > 0) || !TiltedSampleDirections(wi, wo, double(fp[0]), double(fp[1]), &wi_t, &wo_t, &ratio)) continue;
+    const Frame tilted = Frame::FromNormalTangent(f.ToWorld(Vec3(fp[0], fp[1], 1).normalized()), tx.tangent);
+    sum += fp[2] * ratio * shader.Eval(uv, tilted, f.ToWorld(wi), f.ToWorld(wo));
+  }
+  return sum * g.samples.geom[i];
+}
+
 TEST(Gather, SamplesMatchGroundTruthBrdf) {
   const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_" + std::to_string(getpid()))).string();
   SynthOptions o = SynthPreset("tiny");
@@ -61,17 +81,22 @@ TEST(Gather, SamplesMatchGroundTruthBrdf) {
 }
 
 // Median relative disagreement of the gathered samples of interior texels
-// with the ground-truth BRDF (mean over channels).
-double MedianRelativeError(const GatherResult& g, const Material& gt) {
+// with the ground-truth BRDF (mean over channels), predicted by
+// predict(g, shader, i) (default: at the texel centre); `count`: the samples
+// it is the median of.
+using TruthPredictor = Rgb (*)(const GatherResult&, const MaterialShader&, int64_t);
+double MedianRelativeError(const GatherResult& g, const Material& gt, TruthPredictor predict = TruthPrediction,
+                           size_t* count = nullptr) {
   MaterialShader shader(gt);
   std::vector<double> rel;
   for (int64_t i = 0; i < g.samples.size(); ++i) {
     const Texel& tx = g.atlas.texels[g.samples.texel[i]];
     if (!tx.interior) continue;
-    const Rgb pred = TruthPrediction(g, shader, i);
+    const Rgb pred = predict(g, shader, i);
     const double y = (g.samples.y[0][i] + g.samples.y[1][i] + g.samples.y[2][i]) / 3;
     if (y > 1e-3) rel.push_back(std::abs((pred[0] + pred[1] + pred[2]) / 3 - y) / y);
   }
+  if (count) *count = rel.size();
   if (rel.empty()) return 1e9;
   std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
   return rel[rel.size() / 2];
@@ -144,7 +169,6 @@ TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
   const SynthOptions o = BumpySphereCapture(dir);
   const Scene scene = LoadScene(dir + "/cap/scene.json");
   const Material gt = LoadMaterial(dir + "/cap/gt");
-  const MaterialShader shader(gt);
   GatherOptions go;
   go.texture_size = o.material.texture_size;
   go.progress = false;
@@ -160,38 +184,16 @@ TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
   EXPECT_TRUE(g.stats.footprint_kept);
   EXPECT_GT(g.stats.footprint_median_tilt_deg, go.footprint_min_tilt_deg);
   ASSERT_EQ(g.samples.footprint.size(), size_t(g.samples.size()) * 3 * SampleSet::kFootprintSubsamples);
-  std::vector<double> rel_centre, rel_footprint;
   for (int64_t i = 0; i < g.samples.size(); ++i) {
-    const Texel& tx = g.atlas.texels[g.samples.texel[i]];
-    if (!tx.interior) continue;
-    const Vec2 uv((tx.x + 0.5) / g.atlas.width, 1.0 - (tx.y + 0.5) / g.atlas.height);
-    const Frame f = Frame::FromNormalTangent(tx.normal, tx.tangent);
-    const Vec3 wi(g.samples.wi[0][i], g.samples.wi[1][i], g.samples.wi[2][i]);
-    const Vec3 wo(g.samples.wo[0][i], g.samples.wo[1][i], g.samples.wo[2][i]);
-    const float* fp = &g.samples.footprint[size_t(i) * 3 * SampleSet::kFootprintSubsamples];
-    Rgb sum = Rgb::Zero();
     double weights = 0;
-    for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, fp += 3) {
-      weights += fp[2];
-      Vec3 wi_t, wo_t;
-      double ratio;
-      if (!(fp[2] > 0) || !TiltedSampleDirections(wi, wo, fp[0], fp[1], &wi_t, &wo_t, &ratio)) continue;
-      const Frame tilted = Frame::FromNormalTangent(f.ToWorld(Vec3(fp[0], fp[1], 1).normalized()), tx.tangent);
-      sum += fp[2] * ratio * shader.Eval(uv, tilted, f.ToWorld(wi), f.ToWorld(wo));
-    }
+    const float* fp = &g.samples.footprint[size_t(i) * 3 * SampleSet::kFootprintSubsamples];
+    for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j) weights += fp[3 * j + 2];
     EXPECT_NEAR(weights, 1.0, 1e-5);
-    const Rgb footprint = sum * g.samples.geom[i], centre = TruthPrediction(g, shader, i);
-    const double y = (g.samples.y[0][i] + g.samples.y[1][i] + g.samples.y[2][i]) / 3;
-    if (y <= 1e-3) continue;
-    rel_centre.push_back(std::abs(centre.mean() - y) / y);
-    rel_footprint.push_back(std::abs(footprint.mean() - y) / y);
   }
-  ASSERT_GT(rel_centre.size(), 1000u);
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
-  const double centre = median(rel_centre), footprint = median(rel_footprint);
+  size_t count = 0;
+  const double centre = MedianRelativeError(g, gt, TruthPrediction, &count);
+  const double footprint = MedianRelativeError(g, gt, TruthFootprintPrediction);
+  ASSERT_GT(count, 1000u);
   std::printf("median relative sample error: texel-centre normal %.4f, footprint sub-samples %.4f\n", centre, footprint);
   EXPECT_LT(footprint, 0.6 * centre);
   fs::remove_all(dir);
