@@ -13,9 +13,10 @@
 #                         [--time-limit MIN] [--max-parallel N] [--relight "OPTIONS"]
 #                         [-- reconstruct options...]
 #   CAPTURES_DIR: every sub-folder holding a scene.json is one capture.
-#   --relight: relight options of the held-out scoring (default "--spp 4": a
-#     camera pixel integrates its footprint, as real cameras and Mitsuba's box
-#     filter do; "--spp 1" for photos rendered at the pixel centre; add
+#   --relight: relight options of the held-out scoring (default "--spp 8
+#     --adaptive-rounds 16": a camera pixel integrates its footprint, as real
+#     cameras and Mitsuba's box filter do, and pixels over edges or a scan's
+#     turning normals take rounds of 8x8 samples until converged; "--spp 1" for photos rendered at the pixel centre; add
 #     "--bounces 2" for captures with interreflection).
 #   Default: Slurm when `sbatch` is on PATH, else local.
 # Example: scripts/batch.sh captures/ results/ -- --time-budget 30
@@ -130,7 +131,7 @@ mkdir -p "$2"
 out="$(cd "$2" && pwd)"
 shift 2
 mode=auto partition="" time_limit=30 max_parallel=""
-export RELIGHT_OPTIONS="${RELIGHT_OPTIONS:---spp 4}"
+export RELIGHT_OPTIONS="${RELIGHT_OPTIONS:---spp 8 --adaptive-rounds 16}"
 while [ $# -gt 0 ]; do
   case "$1" in
     --local) mode=local; shift;;

@@ -2,6 +2,7 @@
 // light, a hard shadow, the COLMAP pixel convention, and the mask silhouette.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -393,6 +394,56 @@ TEST(Relight, RejectsBadOptions) {
   RelightOptions o;
   o.samples_per_pixel = 0;
   EXPECT_THROW(o.Check(), Error);
+  RelightOptions a;
+  a.adaptive_max_rounds = 8;  // rounds of n x n samples need n >= 2
+  EXPECT_THROW(a.Check(), Error);
+  a.samples_per_pixel = 4;
+  EXPECT_NO_THROW(a.Check());
+  a.adaptive_tolerance = 0;
+  EXPECT_THROW(a.Check(), Error);
+}
+
+// Adaptive supersampling against the closed form of a pixel integral: a
+// straight edge at 37 % of each pixel's width (value 0.37 exactly) converges
+// far below the fixed 4 x 4 error, and flat pixels stop after one round.
+TEST(Relight, AdaptiveSupersamplingConvergesOnEdgesAndSkipsFlatPixels) {
+  constexpr int kW = 64;
+  Camera cam;
+  cam.width = kW;
+  cam.height = 2;  // row 0: edges, row 1: flat
+  ImageEntry entry;
+  std::vector<std::atomic<int>> calls(2 * kW);
+  const PixelRadiance radiance = [&](double px, double py, Rng&, bool* hit) {
+    *hit = true;
+    ++calls[int(py) * kW + int(px)];
+    const double v = py < 1 ? (px - std::floor(px) < 0.37 ? 1.0 : 0.0) : 0.37;
+    return Rgb(v, v, v);
+  };
+  RelightOptions fixed;
+  fixed.samples_per_pixel = 4;
+  fixed.progress = false;
+  RelightOptions adaptive = fixed;
+  adaptive.adaptive_max_rounds = 64;
+  adaptive.adaptive_tolerance = 0.001;
+  auto mean_error = [&](const RenderedView& v, int row) {
+    double e = 0;
+    for (int x = 0; x < kW; ++x) e += std::abs(v.color.at(x, row, 0) - 0.37);
+    return e / kW;
+  };
+  for (auto& c : calls) c = 0;
+  const RenderedView f = RenderPixels(cam, entry, 0, fixed, radiance);
+  for (auto& c : calls) c = 0;
+  const RenderedView a = RenderPixels(cam, entry, 0, adaptive, radiance);
+  const double fixed_error = mean_error(f, 0), adaptive_error = mean_error(a, 0);
+  EXPECT_GT(fixed_error, 0.01);
+  EXPECT_LT(adaptive_error, 0.25 * fixed_error) << "fixed " << fixed_error;
+  EXPECT_LT(mean_error(a, 1), 1e-6);
+  int edge_calls = 0;
+  for (int x = 0; x < kW; ++x) {
+    EXPECT_EQ(calls[kW + x], 1 + 16) << "flat pixel " << x << ": the centre (mask) and one round";
+    edge_calls += calls[x];
+  }
+  EXPECT_GE(edge_calls, kW * (1 + 4 * 16)) << "edge pixels: at least 4 rounds";
 }
 
 EnvironmentMap ConstantEnvironment(double radiance) {

@@ -24,6 +24,12 @@ void RegisterRelight(CLI::App& app, Runner* run) {
   c->add_option("scene", a->scene, "scene.json giving views and lights")->required();
   c->add_option("--out", a->out, "output folder")->required();
   c->add_option("--spp", a->options.samples_per_pixel, "supersampling: n x n samples per pixel (1 = pixel centre)");
+  c->add_option("--adaptive-rounds", a->options.adaptive_max_rounds,
+                 "adaptive supersampling: up to this many rounds of --spp n x n samples per pixel, until the pixel's "
+                 "sRGB standard error is below --adaptive-tolerance (0 = off; photos whose pixels integrate their area "
+                 "over sub-pixel geometry need it)");
+  c->add_option("--adaptive-tolerance", a->options.adaptive_tolerance,
+                "--adaptive-rounds: target standard error of a pixel's sRGB value (default 0.001)");
   c->add_option("--bounces", a->options.bounces,
                 "indirect light: path-traced surface bounces after the first hit (0 = direct only, the default);\n"
                 "to score against photos of objects that light themselves (concave shapes, real captures)");

@@ -67,12 +67,14 @@ struct GatherOptions {
   // 0.95 deg, 49.23 -> 49.18 at twice the CPU; default 0.88 deg, 45.46 ->
   // 45.46 at twice the CPU; mixed 0.38 deg, 45.61 -> 45.40. Synthetic
   // photos sample the pixel centre (n = 1 would be exact there), Mitsuba's
-  // and cameras integrate the pixel (n >= 2). Off by default (opt-in,
-  // --footprint-subsamples 2): on the Mitsuba armadillo scan (13.2 deg) the
-  // true material's sample error falls 774 -> 178 (4x4 rays: 29) and the
-  // reconstruction gains at seeds 2 / 3 (34.30 / 34.13 -> 37.81 / 37.63 dB)
-  // but at seed 1 the split search stops at 2 materials: 34.18 -> 21.42 dB.
-  int footprint_subsamples = 0;
+  // and cameras integrate the pixel (n >= 2). On the Mitsuba armadillo scan
+  // (13.2 deg) the true material's sample error falls 774 -> 178 (4x4 rays:
+  // 29) and the reconstruction gains 3.5 dB at seeds 1-3 (34.18 / 34.30 /
+  // 34.13 -> 37.68 / 37.92 / 37.63 dB); the Mitsuba bunny at seeds 1-3
+  // 42.84 / 43.01 / 41.92 -> 43.90 / 43.91 / 42.32 dB. It was opt-in while
+  // the armadillo's seed-1 split search stopped at 2 materials (21.42 dB),
+  // until SplitSides peeled extreme texels off its features (cluster/split.cc).
+  int footprint_subsamples = 2;
   double footprint_min_tilt_deg = 2.0;
   double max_foreign_share = 0.25;
   // Samples whose pixel footprint spans more than this turn of the mesh

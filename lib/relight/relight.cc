@@ -18,6 +18,12 @@ namespace fs = std::filesystem;
 void RelightOptions::Check() const {
   if (samples_per_pixel < 1 || samples_per_pixel > 16)
     throw Error(Msg("relight: --spp must be in [1, 16], got ", samples_per_pixel));
+  if (adaptive_max_rounds < 0 || adaptive_max_rounds > 256)
+    throw Error(Msg("relight: --adaptive-rounds must be in [0, 256], got ", adaptive_max_rounds));
+  if (adaptive_max_rounds > 0 && samples_per_pixel < 2)
+    throw Error("relight: --adaptive-rounds needs --spp 2 or more (rounds of n x n stratified samples)");
+  if (!(adaptive_tolerance > 0) || !std::isfinite(adaptive_tolerance))
+    throw Error(Msg("relight: --adaptive-tolerance must be a finite number > 0, got ", adaptive_tolerance));
   if (env_samples < 1 || env_samples > 1 << 20)
     throw Error(Msg("relight: --samples must be in [1, 1048576], got ", env_samples));
   if (!(envmap_scale > 0) || !std::isfinite(envmap_scale))
@@ -113,6 +119,19 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
   return RenderPixels(cam, entry, index, options, shade);
 }
 
+namespace {
+
+// d sRGB / d linear at linear value v (the encoding's slope; 0 above 1,
+// where the encoded value is clipped): converts a linear standard error to
+// the sRGB units that PSNR is measured in.
+double SrgbSlope(double v) {
+  if (v >= 1.0) return 0.0;
+  if (v <= 0.0031308) return 12.92;
+  return 1.055 / 2.4 * std::pow(v, 1.0 / 2.4 - 1.0);
+}
+
+}  // namespace
+
 RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t index, const RelightOptions& options,
                           const PixelRadiance& shade) {
   const int n = options.samples_per_pixel;
@@ -130,14 +149,49 @@ RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t ind
         sum = shade(x + 0.5, y + 0.5, rng, &centre_hit);
       } else {
         shade(x + 0.5, y + 0.5, rng, &centre_hit);  // mask from the pixel centre
-        for (int sy = 0; sy < n; ++sy)
-          for (int sx = 0; sx < n; ++sx) {
-            bool h;
-            const double jy = u01(rng);  // this order reproduces earlier renders bit for bit
-            const double jx = u01(rng);
-            sum += shade(x + (sx + jx) / n, y + (sy + jy) / n, rng, &h);
+        // One round: n x n stratified jittered samples; returns their mean,
+        // `spread` gets their variance per channel.
+        auto round = [&](Rgb* spread) {
+          Rgb r = Rgb::Zero(), r2 = Rgb::Zero();
+          for (int sy = 0; sy < n; ++sy)
+            for (int sx = 0; sx < n; ++sx) {
+              bool h;
+              const double jy = u01(rng);  // this order reproduces earlier renders bit for bit
+              const double jx = u01(rng);
+              const Rgb v = shade(x + (sx + jx) / n, y + (sy + jy) / n, rng, &h);
+              r += v, r2 += v * v;
+            }
+          const double count = double(n * n);
+          if (spread) *spread = (r2 / count - (r / count).square()).max(0.0);
+          return Rgb(r / count);
+        };
+        // The largest standard error over the channels in sRGB units.
+        auto srgb_error = [&](const Rgb& mean, const Rgb& variance_of_mean) {
+          double worst = 0;
+          for (int c = 0; c < 3; ++c)
+            worst = std::max(worst, entry.exposure * std::sqrt(variance_of_mean[c]) * SrgbSlope(entry.exposure * mean[c]));
+          return worst;
+        };
+        Rgb spread;
+        sum = round(&spread);
+        // Adaptive: a pixel whose first round's samples agree (the naive,
+        // for stratified samples pessimistic, standard error) is done; the
+        // others take rounds until the spread of the round means says so,
+        // after at least kMinRounds (two rounds agreeing by chance on an
+        // edge pixel stopped too early: 50.1 dB where 16 x 16 samples gave
+        // 50.5 on the Mitsuba bunny truth).
+        constexpr int kMinRounds = 4;
+        if (options.adaptive_max_rounds > 1 && srgb_error(sum, spread / double(n * n)) > options.adaptive_tolerance) {
+          Rgb mean = sum, m2 = Rgb::Zero();  // Welford over the round means
+          for (int r = 2; r <= options.adaptive_max_rounds; ++r) {
+            const Rgb v = round(nullptr);
+            const Rgb d = v - mean;
+            mean += d / double(r);
+            m2 += d * (v - mean);
+            if (r >= kMinRounds && srgb_error(mean, m2 / (double(r) * (r - 1))) <= options.adaptive_tolerance) break;
           }
-        sum /= double(n * n);
+          sum = mean;
+        }
       }
       for (int c = 0; c < 3; ++c) out.color.at(x, int(y), c) = float(entry.exposure * sum[c]);
       out.mask.at(x, int(y), 0) = centre_hit ? 1.0f : 0.0f;

@@ -26,6 +26,16 @@ struct RelightOptions {
   int samples_per_pixel = 1;  // 1 = the pixel centre; n>1: n x n stratified jittered samples per pixel
   int threads = 0;            // 0 = all cores
   uint64_t seed = 1;          // jitter of supersampling
+  // Adaptive supersampling (needs samples_per_pixel > 1): each pixel gets
+  // rounds of n x n stratified samples until the standard error of its
+  // sRGB-encoded value (from the spread of the round means, every channel)
+  // is at most `adaptive_tolerance`, or `adaptive_max_rounds` rounds are
+  // spent; at least 2 rounds to measure the spread. 0 = fixed: one round.
+  // Pixels that integrate sub-pixel edges, occlusions and normals turning
+  // within the pixel (a scanned mesh's) need many samples to match photos
+  // whose pixels integrate their area; flat interiors need few.
+  int adaptive_max_rounds = 0;
+  double adaptive_tolerance = 0.001;  // sRGB units (1 = white): noise of a 60 dB PSNR
   bool png_preview = false;   // also write <file>.preview.png (sRGB, 8 bit)
   bool progress = true;
   // Indirect light: paths of up to `bounces` surface bounces after the first
