@@ -512,6 +512,45 @@ TEST(Weights, UnitSumIsChosenByHeldOutSamplesAndMatchesTheTruth) {
   }
 }
 
+// Two matte paints blended over a wide zone (the Mitsuba scans' soft
+// borders): each cluster's fit takes its blend texels for pure ones and its
+// colour drifts towards the other paint; refitted given the weights
+// (basis_refit.h), with the other's share subtracted, it returns to the
+// truth, and the held-out check keeps the refit.
+TEST(BasisRefit, BlendZonesNoLongerBiasTheMaterials) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.1, 0.1), Lambert(0.1, 0.42, 0.14)};
+  const int w = 40, h = 12;
+  std::vector<std::vector<double>> mix;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double b = std::clamp((x - 12.0) / 16.0, 0.0, 1.0);  // pure, a 16-texel ramp, pure
+      mix.push_back({1.0 - b, b});
+    }
+  const SampleSet s = MakeMixedSamples(truth, mix, 29);
+  auto colour_error = [&](bool refit) {
+    ReconstructOptions o = Quiet();
+    o.refit_basis_on_weights = refit;
+    o.force_clusters = 2;
+    // Texels as blends of the two paints (weights summing to 1): free
+    // per-channel weights could paint any colour with two matte bases.
+    o.weight_unit_sum_samples = {1000.0};
+    const SvbrdfEstimate est = EstimateSvbrdf(s, GridAtlas(w, h), o);
+    EXPECT_EQ(est.basis.size(), 2u);
+    double worst = 0;
+    for (const BasisMaterial& b : est.basis) {
+      const Rgb f = EvalModelD(b.spec, b.params.data(), Vec3(0, 0, 1), Vec3(0, 0, 1)) * kPi;
+      const BasisMaterial& t = f[0] > f[1] ? truth[0] : truth[1];
+      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(f[c] / t.params[c] - 1.0));
+    }
+    return worst;
+  };
+  const double without = colour_error(false), with = colour_error(true);
+  EXPECT_GT(without, 0.02) << "the blend zone must bias the clusters' fits";
+  // Measured: the worst channel 28.1 % off without, 1.7 % after 3 rounds.
+  EXPECT_LT(with, 0.1 * without) << "without the refit " << without;
+  EXPECT_LT(with, 0.03);
+}
+
 // Texels with too few training samples get no weights in the held-out
 // measure; in the neighbour pass they must not count as neighbours with
 // weight 0 (which pulled their neighbours towards black: the default

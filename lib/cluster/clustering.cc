@@ -100,18 +100,23 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   fo.multi_start = fo.multi_start && multi_start;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
-  fo.robust_scale = std::max(0.0, o_.robust_scale);
   fo.context = k >= 0 ? Msg("reconstruct: cluster ", k, " (", stage, ")") : Msg("reconstruct: ", stage);
-  const bool skip_ls = init_is_fit && !init.empty() && o_.robust_scale < 0 && !ids.empty();
+  return RobustFit(spec, s_, ids, o_, fo, init, init_is_fit);
+}
+
+FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector<int64_t>& ids,
+                    const ReconstructOptions& o, FitOptions fo, const std::vector<double>& init, bool init_is_fit) {
+  fo.robust_scale = std::max(0.0, o.robust_scale);
+  const bool skip_ls = init_is_fit && !init.empty() && o.robust_scale < 0 && !ids.empty();
   FitResult ls;
   if (skip_ls) ls.params = init;
-  else ls = FitModel(spec, s_, ids, fo, init);
-  if (o_.robust_scale >= 0 || ids.empty()) return ls;
+  else ls = FitModel(spec, s, ids, fo, init);
+  if (o.robust_scale >= 0 || ids.empty()) return ls;
   std::vector<float> r;
   const size_t step = std::max<size_t>(1, ids.size() / 20000);
   for (size_t j = 0; j < ids.size(); j += step) {
-    const Rgb p = PredictSample(spec, ls.params.data(), s_, ids[j]);
-    for (int c = 0; c < 3; ++c) r.push_back(std::abs(s_.y[c][ids[j]] - float(p[c])));
+    const Rgb p = PredictSample(spec, ls.params.data(), s, ids[j]);
+    for (int c = 0; c < 3; ++c) r.push_back(std::abs(s.y[c][ids[j]] - float(p[c])));
   }
   std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);
@@ -121,7 +126,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   // without one does the failure end the fit.
   FitResult robust;
   try {
-    robust = FitModel(spec, s_, ids, fo, ls.params);
+    robust = FitModel(spec, s, ids, fo, ls.params);
   } catch (const Error& e) {
     if (skip_ls) throw;
     std::fprintf(stderr, "  warning: %s; the least-squares fit is kept\n", e.what());

@@ -184,6 +184,12 @@ uint64_t PartitionKey(const std::vector<int>& assign);
 
 BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index);
 
+// The clusters' robust fit (Clustering::FitIds) on any sample set: least
+// squares (unless `init_is_fit`), then a Cauchy refit at 3 robust sigmas of
+// its residuals when o.robust_scale < 0; `fo` gives the solver's budget.
+FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector<int64_t>& ids,
+                    const ReconstructOptions& o, FitOptions fo, const std::vector<double>& init, bool init_is_fit);
+
 // Assign and refit until stable or `iterations` done; drops empty clusters.
 // fits_current: every basis was fitted on its cluster's current texels (all
 // training samples, as Clustering::Fit does), so the first pass refits only

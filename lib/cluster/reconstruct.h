@@ -121,6 +121,10 @@ struct ReconstructOptions {
   // makes them (default preset: held-out RMSE 0.0045 at radius 2, 0.0020 at 8).
   std::vector<int> weight_radii = {2, 4, 8};
   std::vector<double> weight_unit_sum_samples = {0.0, 1.0, 1000.0};
+  // Step 4b (basis_refit.h): every basis material refitted on the samples
+  // of the texels it dominates, the others' share (weights x predictions)
+  // subtracted; kept when the held-out error falls.
+  bool refit_basis_on_weights = true;
   int min_samples = 3;           // per texel, for confident weights (confidence map)
   // Per texel, to take part in fits and in the split search's held-out
   // measure. One: cluster fits pool all their texels, and a texel's weights

