@@ -16,8 +16,9 @@ namespace svbrdf {
 // by NNLS. The probes do not depend on the cluster's current fit, which may
 // be poor while the cluster still mixes materials. The features are
 // whitened, split at the mean along their principal component, and the
-// split is refined by 2-means. When one half is smaller than a split may
-// make (min_cluster_fraction), that half is peeled off and the rest split
+// split is refined by 2-means. With all five features (variant 0), when one
+// half is smaller than a split may make (min_cluster_fraction), that half is
+// peeled off and the rest split
 // again; the rest's split is taken when both its halves hold at least twice
 // that share (extreme texels had hidden two materials), else the small half
 // is returned (one material: the search stops there).
