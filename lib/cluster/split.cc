@@ -132,8 +132,9 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
     const std::vector<int> r = TwoMeans(Zr);
     const long r_ones = std::count(r.begin(), r.end(), 1);
     // The peeled split is a second guess: its halves must be clearly, not
-    // just barely, large enough (the tiny preset with 5 materials: a 224-texel
-    // piece of one material's 660 texels, against a minimum of at most 122, became a sixth material).
+    // just barely, large enough (the tiny preset with 5 materials: a piece of
+    // 224 of one material's 660 texels, against a minimum of at most 122,
+    // became a sixth material).
     constexpr long kPeeledMinHalfFactor = 2;
     if (std::min<long>(r_ones, long(rest.size()) - r_ones) >= kPeeledMinHalfFactor * min_half) {
       // Every texel, the peeled ones too, to the nearer of the rest's groups.

@@ -18,9 +18,6 @@ std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double
 // which model describes the cluster.
 double TrimmedRmse(std::vector<double> e);
 
-// Median (upper median for an even count); 0 for an empty vector.
-double Median(std::vector<double> v);
-
 // RMS of the samples' values per channel (the scale of "parsimony" margins).
 double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids);
 

@@ -177,9 +177,11 @@ RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t ind
         // Adaptive: a pixel whose first round's samples agree (the naive,
         // for stratified samples pessimistic, standard error) is done; the
         // others take rounds until the spread of the round means says so,
-        // after at least kMinRounds (two rounds agreeing by chance on an
-        // edge pixel stopped too early: 50.1 dB where 16 x 16 samples gave
-        // 50.5 on the Mitsuba bunny truth).
+        // after at least kMinRounds (the spread of two or three means is
+        // too noisy to stop on). The first round must be fine enough to
+        // see a sub-pixel feature: on the Mitsuba bunny's truth rounds of
+        // 4 x 4 saturate near 50.0 dB, 6 x 6 reach 50.39, 8 x 8 50.49,
+        // against 50.50 for a fixed 16 x 16 (bench_results/independent.md).
         constexpr int kMinRounds = 4;
         if (options.adaptive_max_rounds > 1 && srgb_error(sum, spread / double(n * n)) > options.adaptive_tolerance) {
           Rgb mean = sum, m2 = Rgb::Zero();  // Welford over the round means
