@@ -13,17 +13,18 @@ namespace {
 // One round: returns whether the refit was kept (cl's basis set), with the
 // held-out RMSE before and after.
 bool RefitRound(Clustering& cl, const WeightModel& m, const BasisRefitOptions& ro, double* before_out,
-                double* after_out, std::string* line_out) {
+                double* after_out, double* gain_out, std::string* line_out) {
   const SampleSet& s = cl.samples();
   const int K = cl.K();
-  // Weights from the training samples only: the held-out check below must
-  // not see its own samples through them.
+  // Weights from the training samples only (the held-out check below must
+  // not see its own samples through them), and in the same solve the
+  // held-out error per texel: HeldoutRmse(m) of the current basis.
   int64_t n = 0;
   std::vector<float> first, w;
-  if (m.smooth) cl.MixtureError(m, false, false, &n, &first, nullptr);
-  cl.MixtureError(m, false, false, &n, &w, nullptr, nullptr, m.smooth ? &first : nullptr);
   std::vector<double> texel_before;
-  const double before = cl.HeldoutRmse(m, &texel_before);
+  if (m.smooth) cl.MixtureError(m, false, false, &n, &first, nullptr);
+  const double sse = cl.MixtureError(m, false, false, &n, &w, nullptr, &texel_before, m.smooth ? &first : nullptr);
+  const double before = n > 0 ? std::sqrt(sse / double(n)) : 0.0;
   const std::vector<BasisMaterial> old = cl.basis();
   auto weight = [&](int t, int k, int c) { return double(w[(size_t(t) * K + k) * 3 + c]); };
   std::vector<BasisMaterial> refit = old;
@@ -75,31 +76,53 @@ bool RefitRound(Clustering& cl, const WeightModel& m, const BasisRefitOptions& r
       line += Msg(k ? "; " : "", "m", k, " not refitted (", e.what(), ")");
     }
   }
-  // Per material: its refit is kept where the held-out error of the
-  // texels it dominates rises by at most max_loss (one material's refit may
-  // pay while another's does not), then the whole set is checked once more.
+  // Judged on interior texels: a texel whose own and whose neighbours'
+  // weights of k are all >= kInterior. Near a border the held-out samples
+  // carry some of the neighbouring material's colour, as the training ones
+  // do, and reward a material that absorbed it: on the Mitsuba bunny the
+  // plastic's refit raised the held-out error of the texels it dominates by
+  // 3.9 % and lowered that of its interior texels by 5.5 %; on the default
+  // capture +4.3 % and -22.9 %.
+  constexpr double kInterior = 0.99;
+  std::vector<std::vector<int>> interior(K);
+  for (int t = 0; t < s.num_texels; ++t)
+    for (int k = 0; k < K; ++k) {
+      bool inside = cl.usable()[t];
+      for (int c = 0; c < 3; ++c) inside = inside && weight(t, k, c) >= kInterior;
+      for (int u : cl.neighbours()[t])
+        for (int c = 0; c < 3; ++c) inside = inside && weight(u, k, c) >= kInterior;
+      if (inside) interior[k].push_back(t);
+    }
+  auto sum_over = [](const std::vector<double>& e, const std::vector<int>& texels) {
+    double sum = 0;
+    for (int t : texels) sum += t < int(e.size()) ? e[t] : 0.0;
+    return sum;
+  };
   for (int k = 0; k < K; ++k) cl.SetBasis(k, refit[k]);
   std::vector<double> texel_after;
   double after = cl.HeldoutRmse(m, &texel_after);
   std::vector<char> take(K, 0);
   int taken = 0;
   for (int k = 0; k < K; ++k) {
-    double b = 0, a = 0;
-    for (int t = 0; t < s.num_texels && t < int(texel_before.size()) && t < int(texel_after.size()); ++t)
-      if (weight(t, k, 0) + weight(t, k, 1) + weight(t, k, 2) >= 3 * ro.min_own_weight)
-        b += texel_before[t], a += texel_after[t];
-    take[k] = a < b * (1.0 + ro.max_loss);
+    const double b = sum_over(texel_before, interior[k]), a = sum_over(texel_after, interior[k]);
+    take[k] = !interior[k].empty() && a < b;
     taken += take[k];
-    line += Msg("; m", k, take[k] ? " refitted" : " kept as it was");
+    line += Msg("; m", k, take[k] ? " refitted" : " kept as it was", " (", interior[k].size(), " interior texels: ",
+                b > 0 ? 100 * (a / b - 1) : 0.0, " %)");
   }
   if (taken > 0 && taken < K) {
     for (int k = 0; k < K; ++k) cl.SetBasis(k, take[k] ? refit[k] : old[k]);
-    after = cl.HeldoutRmse(m);
+    after = cl.HeldoutRmse(m, &texel_after);
   }
-  const bool kept = taken > 0 && after < before * (1.0 + ro.max_loss);
+  // The round as a whole: the interior texels of all materials together.
+  double all_before = 0, all_after = 0;
+  for (int k = 0; k < K; ++k)
+    all_before += sum_over(texel_before, interior[k]), all_after += sum_over(texel_after, interior[k]);
+  const bool kept = taken > 0 && all_after < all_before;
   if (!kept)
     for (int k = 0; k < K; ++k) cl.SetBasis(k, old[k]);
   *before_out = before, *after_out = after, *line_out = line;
+  *gain_out = all_before > 0 ? 1.0 - all_after / all_before : 0.0;
   return kept;
 }
 
@@ -110,15 +133,15 @@ bool RefitBasisOnWeights(Clustering& cl, const WeightModel& m, const BasisRefitO
   if (cl.K() == 0 || cl.samples().size() == 0) return false;
   bool any = false;
   for (int round = 1; round <= ro.max_rounds; ++round) {
-    double before = 0, after = 0;
+    double before = 0, after = 0, gain = 0;
     std::string line;
-    const bool kept = RefitRound(cl, m, ro, &before, &after, &line);
-    log(Msg("basis refit on the weights, round ", round, " (", line, "): held-out RMSE ", before, " -> ", after,
-            kept ? ": kept" : ": not kept"));
+    const bool kept = RefitRound(cl, m, ro, &before, &after, &gain, &line);
+    log(Msg("basis refit on the weights, round ", round, " (", line, "): interior held-out error ", -100 * gain,
+            " %, held-out RMSE ", before, " -> ", after, kept ? ": kept" : ": not kept"));
     if (!kept) break;
     any = true;
     est->heldout_rmse = after;
-    if (after > before * (1.0 - ro.min_round_gain)) break;  // converged (or within the tolerance)
+    if (gain < ro.min_round_gain) break;  // converged
     if (cl.options().SecondsLeft() <= 0) break;
   }
   return any;
