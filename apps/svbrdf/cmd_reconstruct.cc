@@ -91,7 +91,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, NormalMapSpace>{{"tangent", NormalMapSpace::kTangent}, {"world", NormalMapSpace::kWorld}}));
   c->add_flag("--basis-refit,!--no-basis-refit", job->estimate.refit_basis_on_weights,
-              "refit the basis materials given the mixing weights (kept when the held-out error falls)");
+              "refit the basis materials given the mixing weights (kept where the held-out error of their interior "
+              "texels falls)");
   c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");
