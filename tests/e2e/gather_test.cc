@@ -102,11 +102,6 @@ double MedianRelativeError(const GatherResult& g, const Material& gt, TruthPredi
   return rel[rel.size() / 2];
 }
 
-// A scan-like surface whose normal turns within a pixel (a sphere with
-// bumps of ~4 pixels' wavelength, rendered with 4x4 samples per pixel as a
-// camera integrates them): the samples' frames from the footprint's mean
-// normal must describe the measured values better than the texel-centre
-// normal.
 // Writes the bumpy sphere below to dir/bumpy.obj and an 8-view tiny capture
 // of it, rendered with 4x4 samples per pixel, to dir/cap.
 SynthOptions BumpySphereCapture(const std::string& dir) {
@@ -143,21 +138,40 @@ SynthOptions BumpySphereCapture(const std::string& dir) {
   return o;
 }
 
-TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_bumps_" + std::to_string(getpid()))).string();
-  const SynthOptions o = BumpySphereCapture(dir);
-  const Scene scene = LoadScene(dir + "/cap/scene.json");
-  const Material gt = LoadMaterial(dir + "/cap/gt");
+// The bumpy sphere's capture (BumpySphereCapture) loaded, with its true
+// material and gather options at its texture size; removes its folder when
+// the test ends.
+struct BumpySphereCase {
+  explicit BumpySphereCase(const std::string& name)
+      : dir((fs::temp_directory_path() / (name + std::to_string(getpid()))).string()),
+        options(BumpySphereCapture(dir)),
+        scene(LoadScene(dir + "/cap/scene.json")),
+        gt(LoadMaterial(dir + "/cap/gt")) {
+    go.texture_size = options.material.texture_size;
+    go.progress = false;
+  }
+  ~BumpySphereCase() { fs::remove_all(dir); }
+  const std::string dir;
+  const SynthOptions options;
+  const Scene scene;
+  const Material gt;
   GatherOptions go;
-  go.texture_size = o.material.texture_size;
-  go.progress = false;
-  go.footprint_rays = 0;
-  const double centre = MedianRelativeError(Gather(scene, go), gt);
-  go.footprint_rays = 2;
-  const double footprint = MedianRelativeError(Gather(scene, go), gt);
+};
+
+// A scan-like surface whose normal turns within a pixel (a sphere with
+// bumps of ~4 pixels' wavelength, rendered with 4x4 samples per pixel as a
+// camera integrates them): the samples' frames from the footprint's mean
+// normal must describe the measured values better than the texel-centre
+// normal.
+TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
+  BumpySphereCase c("svbrdf_gather_bumps_");
+  c.go.footprint_subsamples = 0;  // the frames' normal alone (the sub-samples are tested below)
+  c.go.footprint_rays = 0;
+  const double centre = MedianRelativeError(Gather(c.scene, c.go), c.gt);
+  c.go.footprint_rays = 2;
+  const double footprint = MedianRelativeError(Gather(c.scene, c.go), c.gt);
   std::printf("median relative sample error: texel-centre normal %.4f, footprint normal %.4f\n", centre, footprint);
   EXPECT_LT(footprint, 0.7 * centre);
-  fs::remove_all(dir);
 }
 
 // The footprint sub-samples (GatherOptions::footprint_subsamples) on the same
@@ -165,13 +179,10 @@ TEST(Gather, FootprintNormalsFollowSubPixelBumps) {
 // normals (as PredictSample does) describes the samples better than at the
 // texel-centre normal; the weights sum to 1.
 TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_subs_" + std::to_string(getpid()))).string();
-  const SynthOptions o = BumpySphereCapture(dir);
-  const Scene scene = LoadScene(dir + "/cap/scene.json");
-  const Material gt = LoadMaterial(dir + "/cap/gt");
-  GatherOptions go;
-  go.texture_size = o.material.texture_size;
-  go.progress = false;
+  BumpySphereCase c("svbrdf_gather_subs_");
+  const Scene& scene = c.scene;
+  const Material& gt = c.gt;
+  GatherOptions& go = c.go;
   go.footprint_subsamples = 0;
   EXPECT_FALSE(Gather(scene, go).samples.HasFootprint());
   go.footprint_subsamples = 2;
@@ -196,7 +207,6 @@ TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
   ASSERT_GT(count, 1000u);
   std::printf("median relative sample error: texel-centre normal %.4f, footprint sub-samples %.4f\n", centre, footprint);
   EXPECT_LT(footprint, 0.6 * centre);
-  fs::remove_all(dir);
 }
 
 // Samples whose pixel footprint spans a large turn of the mesh normal are
@@ -204,13 +214,11 @@ TEST(Gather, FootprintSubsamplesPredictSubPixelBumps) {
 // (GatherOptions::max_footprint_turn_deg) leaves samples that agree better
 // with the true BRDF, and rejects none on a smooth sphere.
 TEST(Gather, SamplesWhereTheNormalTurnsWithinThePixelAreRejected) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_turn_" + std::to_string(getpid()))).string();
-  const SynthOptions o = BumpySphereCapture(dir);
-  const Scene scene = LoadScene(dir + "/cap/scene.json");
-  const Material gt = LoadMaterial(dir + "/cap/gt");
-  GatherOptions go;
-  go.texture_size = o.material.texture_size;
-  go.progress = false;
+  BumpySphereCase c("svbrdf_gather_turn_");
+  const std::string& dir = c.dir;
+  const Scene& scene = c.scene;
+  const Material& gt = c.gt;
+  GatherOptions& go = c.go;
   const GatherResult all = Gather(scene, go);
   go.max_footprint_turn_deg = 12;
   const GatherResult kept = Gather(scene, go);
@@ -227,7 +235,6 @@ TEST(Gather, SamplesWhereTheNormalTurnsWithinThePixelAreRejected) {
   smooth.num_heldout = 0;
   Synthesize(smooth, dir + "/smooth");
   EXPECT_EQ(Gather(LoadScene(dir + "/smooth/scene.json"), go).stats.turning, 0);
-  fs::remove_all(dir);
 }
 
 // Where the photo changes steeply within a sample's bilinear lookup (here:
@@ -237,13 +244,11 @@ TEST(Gather, SamplesWhereTheNormalTurnsWithinThePixelAreRejected) {
 // agree better with the true BRDF, and rejects almost none on a smooth
 // sphere, whose mesh does not turn within a pixel.
 TEST(Gather, SamplesWhosePhotoChangesSteeplyWithinTheLookupAreRejected) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_contrast_" + std::to_string(getpid()))).string();
-  const SynthOptions o = BumpySphereCapture(dir);
-  const Scene scene = LoadScene(dir + "/cap/scene.json");
-  const Material gt = LoadMaterial(dir + "/cap/gt");
-  GatherOptions go;
-  go.texture_size = o.material.texture_size;
-  go.progress = false;
+  BumpySphereCase c("svbrdf_gather_contrast_");
+  const std::string& dir = c.dir;
+  const Scene& scene = c.scene;
+  const Material& gt = c.gt;
+  GatherOptions& go = c.go;
   go.max_lookup_contrast = 0.3;
   const GatherResult kept = Gather(scene, go);
   GatherOptions off = go;
@@ -272,7 +277,6 @@ TEST(Gather, SamplesWhosePhotoChangesSteeplyWithinTheLookupAreRejected) {
   GatherOptions flat_only = go;
   flat_only.contrast_min_turn_deg = 90;
   EXPECT_EQ(Gather(smooth_scene, flat_only).stats.contrast, 0);
-  fs::remove_all(dir);
 }
 
 // The footprint probe (GatherOptions::probe_rays) sees what the texel centre
