@@ -12,7 +12,9 @@ this project models with its own code:
 mixed per vertex by smooth weights (three regions with soft borders, blended by
 nested `blendbsdf`s through mesh attributes, so no texture coordinates are
 needed). Point lights (W/sr), one per photo, half of them a flash beside the
-lens; PINHOLE cameras on a sphere around the object; masks from a coverage pass
+lens; shading normals are Mitsuba's own (angle-weighted, as its OBJ and PLY
+loaders compute them for a file without normals, so mesh.obj has no vn;
+`--normals area` renders and writes area-weighted ones); PINHOLE cameras on a sphere around the object; masks from a coverage pass
 (the object as a unit emitter, box filter: pixel value = covered fraction,
 kept where >= 0.5). `--bounces N` renders N indirect bounces (interreflection
 on the torus); `--noise` adds relative Gaussian noise. Held-out views with
@@ -146,7 +148,8 @@ def quat(r):
     return (q / np.linalg.norm(q)).tolist()
 
 
-def write_obj(path, v, uv, f):
+def write_obj(path, v, uv, f, normals=None):
+    """OBJ with optional texture coordinates and per-position normals (vn)."""
     with open(path, "w") as out:
         out.write("# mitsuba_capture.py mesh\n")
         for p in v:
@@ -154,11 +157,19 @@ def write_obj(path, v, uv, f):
         if uv is not None:
             for t in uv:
                 out.write("vt %.9g %.9g\n" % tuple(t))
+        if normals is not None:
+            for n in normals:
+                out.write("vn %.9g %.9g %.9g\n" % tuple(n))
         for t in f + 1:
-            if uv is not None:
-                out.write("f %d/%d %d/%d %d/%d\n" % (t[0], t[0], t[1], t[1], t[2], t[2]))
-            else:
-                out.write("f %d %d %d\n" % tuple(t))
+            corners = []
+            for i in t:
+                c = "%d" % i
+                if uv is not None or normals is not None:
+                    c += "/%d" % i if uv is not None else "/"
+                if normals is not None:
+                    c += "/%d" % i
+                corners.append(c)
+            out.write("f %s\n" % " ".join(corners))
 
 
 def main():
@@ -176,6 +187,9 @@ def main():
     ap.add_argument("--no-uvs", action="store_true", help="write the mesh without texture coordinates")
     ap.add_argument("--detail", type=int, default=64)
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--normals", choices=["mitsuba", "area"], default="mitsuba",
+                    help="shading normals: Mitsuba's own (recompute_vertex_normals, angle-weighted, as its OBJ and "
+                         "PLY loaders compute them for a file without normals) or area-weighted")
     args = ap.parse_args()
 
     import mitsuba as mi
@@ -198,7 +212,9 @@ def main():
     shutil.rmtree(tmp, ignore_errors=True)
     for d in ("images", "masks", "heldout/images", "heldout/masks", "truth"):
         os.makedirs(os.path.join(tmp, d))
-    write_obj(os.path.join(tmp, "mesh.obj"), v, uv, f)
+    # Without normals when Mitsuba computes its own (a reader computes the
+    # same angle-weighted ones); with them (vn) when they are this script's.
+    write_obj(os.path.join(tmp, "mesh.obj"), v, uv, f, n if args.normals == "area" else None)
     np.save(os.path.join(tmp, "truth", "vertex_weights.npy"), w)
 
     metal = {"type": "roughconductor", "distribution": "ggx", "alpha": 0.2,
@@ -223,6 +239,8 @@ def main():
         p["vertex_normals"] = n.astype(np.float32).ravel().tolist()
         p["faces"] = f.astype(np.uint32).ravel().tolist()
         p.update()
+        if args.normals == "mitsuba":
+            m.recompute_vertex_normals()
         w12 = w[:, 1] + w[:, 2]
         m.add_attribute("vertex_w12", 1, w12.astype(np.float32).tolist())
         m.add_attribute("vertex_w2", 1, (w[:, 2] / np.maximum(w12, 1e-9)).astype(np.float32).tolist())

@@ -339,14 +339,27 @@ TEST(Mesh, ObjErrorsNameFileAndLine) {
   ExpectError([&] { LoadMesh(dir / "mesh.stl"); }, {"unknown mesh format"});
 }
 
-TEST(Mesh, AreaWeightedNormals) {
+TEST(Mesh, AngleWeightedNormalsAsMitsubaAndBlender) {
   Mesh m;
-  // Vertex 0 shared by a large face in the xy plane and a small one in the xz plane.
+  // Vertex 0 shared by a large face in the xy plane and a small one in the xz
+  // plane, both with a 90 deg corner there: equal weights whatever their areas
+  // (area weighting would give (0, 1, 4) / sqrt(17)).
   m.positions = {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0), Vec3(0, 0, -1), Vec3(1, 0, 0)};
   m.faces = {Vec3i(0, 1, 2), Vec3i(0, 4, 3)};
   m.ComputeNormals();
-  // Cross products: (0,0,4) and (0,1,0) -> normalised (0, 1, 4) / sqrt(17).
-  EXPECT_TRUE(m.normals[0].isApprox(Vec3(0, 1, 4) / std::sqrt(17.0), 1e-12));
+  EXPECT_TRUE(m.normals[0].isApprox(Vec3(0, 1, 1) / std::sqrt(2.0), 1e-12)) << m.normals[0].transpose();
+  // A fan of two thin, large faces in the yz plane (45 deg corners each at
+  // vertex 0) against one 90 deg face in the xy plane: the fan counts as its
+  // angle, 90 deg, not as its area.
+  Mesh fan;
+  fan.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 10, 10), Vec3(0, 0, 1)};
+  fan.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(0, 3, 4)};
+  fan.ComputeNormals();
+  EXPECT_TRUE(fan.normals[0].isApprox(Vec3(1, 0, 1) / std::sqrt(2.0), 1e-12)) << fan.normals[0].transpose();
+  // A degenerate face adds nothing (and no NaN).
+  fan.faces.push_back(Vec3i(0, 1, 1));
+  fan.ComputeNormals();
+  EXPECT_TRUE(fan.normals[0].isApprox(Vec3(1, 0, 1) / std::sqrt(2.0), 1e-12));
 }
 
 TEST(Mesh, PlyAsciiWithUVsAndQuads) {

@@ -9,17 +9,24 @@
 
 namespace svbrdf {
 
+// How ComputeNormals weights the faces around a vertex.
+enum class NormalWeighting {
+  kAngle,  // by the face's corner angle at the vertex: Mitsuba 3's and Blender's choice (the default)
+  kArea,   // by the face's area: this project's synthetic shapes (their regression data were made with it)
+};
+
 struct Mesh {
   std::vector<Vec3> positions;
   std::vector<Vec3i> faces;       // indices into positions
   std::vector<Vec2> texcoords;    // (u, v), v up as in OBJ
   std::vector<Vec3i> face_uvs;    // indices into texcoords; empty when the mesh has no UVs
   // Per position, unit: the file's own normals when it gives one per position
-  // (OBJ vn, PLY nx ny nz), else area-weighted smooth normals (ComputeNormals).
+  // (OBJ vn, PLY nx ny nz), else angle-weighted smooth normals (ComputeNormals,
+  // as Mitsuba 3 and Blender compute them for a file without normals).
   std::vector<Vec3> normals;
 
   bool HasUVs() const { return !face_uvs.empty(); }
-  void ComputeNormals();
+  void ComputeNormals(NormalWeighting weighting = NormalWeighting::kAngle);
   // dP/du of face f from its UV parametrisation (the tangent that orients
   // anisotropic materials); zero without UVs or for a degenerate UV triangle.
   Vec3 FaceDpDu(int f) const;

@@ -520,8 +520,10 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   for (const char* d : {"images", "masks", "saturation", "report"}) fs::create_directories(tmp / d);
   Mesh world_mesh = mesh;
   for (Vec3& p : world_mesh.positions) p = reg.world_from_object * p;
-  world_mesh.ComputeNormals();
-  SaveObj(world_mesh, (tmp / "mesh.obj").string());
+  // The object's own normals (the file's, or computed when it had none),
+  // turned with it: recomputing could change their weighting.
+  for (Vec3& n : world_mesh.normals) n = reg.world_from_object.rotation * n;
+  SaveObj(world_mesh, (tmp / "mesh.obj").string(), /*write_normals=*/true);
   Scene scene;
   scene.dir = tmp.string();
   scene.mesh = "mesh.obj";

@@ -350,10 +350,11 @@ SynthReport Synthesize(const SynthOptions& o, const std::string& out_dir) {
     std::normal_distribution<double> g;
     for (size_t v = 0; v < recorded_mesh.positions.size(); ++v)
       recorded_mesh.positions[v] += recorded_mesh.normals[v] * g(rng) * o.geometry_noise_mm * 1e-3;
-    recorded_mesh.ComputeNormals();
+    recorded_mesh.ComputeNormals(NormalWeighting::kArea);  // as the shapes (shapes.h)
   }
   if (!o.mesh_uvs) recorded_mesh.texcoords.clear(), recorded_mesh.face_uvs.clear();  // as a scan comes
-  SaveObj(recorded_mesh, (tmp / "mesh.obj").string());
+  // With vn: the normals the photos were shaded with (a reader would compute angle-weighted ones).
+  SaveObj(recorded_mesh, (tmp / "mesh.obj").string(), /*write_normals=*/true);
   recorded.ground_truth = {{"material", "gt"},
                            {"material_id", "gt/material_id.png"},
                            {"heldout_scene", o.num_heldout > 0 ? "heldout/scene.json" : ""},

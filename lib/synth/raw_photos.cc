@@ -134,7 +134,7 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
   // Object: scaled procedural shape at a random orientation above the centre.
   Mesh object_mesh = MakeShape(o.object, o.detail);
   for (Vec3& p : object_mesh.positions) p *= o.object_radius / 0.5;
-  object_mesh.ComputeNormals();
+  object_mesh.ComputeNormals(NormalWeighting::kArea);  // as the shapes (shapes.h)
   truth.world_from_object.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(2 * kPi * u01(rng), RandomUnit(rng)));
   w.object_centre = board_centre + w.up * (1.25 * o.object_radius);
   truth.world_from_object.translation = w.object_centre;
@@ -144,13 +144,13 @@ RawPhotoTruth SynthesizeRawPhotos(const RawPhotoOptions& o, const std::string& o
     w.object_bound = std::max(w.object_bound, p.norm());
     p = truth.world_from_object * p;
   }
-  world_mesh.ComputeNormals();
+  world_mesh.ComputeNormals(NormalWeighting::kArea);
   w.object_bound *= 1.01;
   GroundTruthOptions gto = o.material;
   gto.seed = StreamSeed(o.seed, 1, o.material.seed);
   Material gt = MakeGroundTruth(world_mesh, gto);
   SaveMaterial(gt, (tmp / "truth" / "gt").string());
-  SaveObj(object_mesh, (tmp / "mesh.obj").string());
+  SaveObj(object_mesh, (tmp / "mesh.obj").string(), /*write_normals=*/true);  // the normals the photos show
 
   // Mirror spheres near two opposite corners of the printed board.
   for (auto [fx, fy] : {std::pair{0.14, 0.2}, std::pair{0.86, 0.8}})

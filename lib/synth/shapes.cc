@@ -88,7 +88,7 @@ Mesh Finish(Mesh m) {
   WeldPositions(&m);
   DropDegenerate(&m);
   OrientOutward(&m);
-  m.ComputeNormals();
+  m.ComputeNormals(NormalWeighting::kArea);  // see shapes.h
   return m;
 }
 
@@ -116,7 +116,7 @@ Mesh MakeTorus(double R, double r, int rings, int segments) {
     }
   }
   WeldPositions(&m);
-  m.ComputeNormals();
+  m.ComputeNormals(NormalWeighting::kArea);  // see shapes.h
   return m;
 }
 
@@ -183,7 +183,7 @@ Mesh LoadShapeFromFile(const std::string& path, int texture_size) {
   for (const Vec3& p : m.positions) radius = std::max(radius, (p - centre).norm());
   if (!(radius > 0)) throw Error(Msg(path, ": the mesh has no extent"));
   for (Vec3& p : m.positions) p = (p - centre) * (0.5 / radius);
-  m.ComputeNormals();
+  m.ComputeNormals(NormalWeighting::kArea);  // see shapes.h
   if (!m.HasUVs()) {
     double area = 0;
     for (const Vec3i& f : m.faces)

@@ -1,5 +1,9 @@
 // Procedural test objects with a texture atlas (UVs in [0,1]^2, seams carry
 // separate texture coordinates). Sizes are in metres, centred at the origin.
+// Their vertex normals are area-weighted (NormalWeighting::kArea): the
+// synthetic presets and the regression thresholds measured on them were made
+// with those; the captures write them into mesh.obj (vn), so every reader
+// shades with exactly the generator's normals.
 #pragma once
 #include <string>
 

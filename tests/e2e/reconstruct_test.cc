@@ -81,7 +81,7 @@ Outcome RunCase(const std::string& name, SynthOptions o, ReconstructOptions ro =
     Mesh m = LoadMesh(dir + "/capture/mesh.obj");
     m.texcoords.clear();
     m.face_uvs.clear();
-    SaveObj(m, dir + "/capture/mesh.obj");
+    SaveObj(m, dir + "/capture/mesh.obj", /*write_normals=*/true);  // the normals it was shaded with
   }
   ReconstructionJob job;
   job.scene_path = dir + "/capture/scene.json";
