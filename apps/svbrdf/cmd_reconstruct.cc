@@ -62,11 +62,18 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--footprint-min-tilt", job->gather.footprint_min_tilt_deg,
                 "--footprint-subsamples are kept when the median pixel normal's tilt is at least this (degrees)");
   c->add_option("--probe-rays", job->gather.probe_rays,
-                "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off)");
+                "footprint probe: n x n rays per pixel of each lookup measure its foreign and unlit shares (0 = off; "
+                "--fit-max-unlit-share and --fit-max-foreign-share use them)");
   c->add_option("--max-unlit-share", job->gather.max_unlit_share,
                 "with --probe-rays: reject samples whose footprint is unlit beyond this share (1 = off)");
   c->add_option("--max-probe-foreign-share", job->gather.max_probe_foreign_share,
                 "with --probe-rays: reject samples whose footprint sees another surface beyond this share (1 = off)");
+  c->add_option("--fit-max-unlit-share", job->fit_max_unlit_share,
+                "with --probe-rays: samples whose footprint is unlit beyond this share inform the split search only, "
+                "not the fits and weights (1 = off)");
+  c->add_option("--fit-max-foreign-share", job->fit_max_foreign_share,
+                "with --probe-rays: samples whose footprint sees another surface beyond this share inform the split "
+                "search only (1 = off)");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")

@@ -18,7 +18,8 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
                     SvbrdfEstimate* est);
 }  // namespace
 
-SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o) {
+SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                              const SampleSet* fit_samples) {
   o.Check();
   if (samples.size() == 0) throw Error("reconstruct: no samples");
   Clustering cl(samples, atlas, o);
@@ -48,7 +49,19 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // 3. Model economy per cluster (model_selection.cc). Under a deadline it
   // runs per cluster while it fits (the clustering model is the fallback).
   const double search_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  FinishEstimate(cl, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
+  if (fit_samples == nullptr || fit_samples == &samples) {
+    FinishEstimate(cl, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
+    return est;
+  }
+  if (fit_samples->num_texels != samples.num_texels || fit_samples->size() == 0)
+    throw Error(Msg("reconstruct: the fit samples (", fit_samples->size(), " on ", fit_samples->num_texels,
+                    " texels) are not a subset of the ", samples.num_texels, " texels' samples"));
+  // Steps 3-6 on the fit samples: the search's partition and materials carry over.
+  Clustering fit(*fit_samples, atlas, o);
+  for (int k = 0; k < cl.K(); ++k) fit.SetBasis(k, cl.basis()[k]);
+  fit.assign() = cl.assign();
+  log(Msg("fits and weights on ", fit_samples->size(), " of the ", samples.size(), " samples"));
+  FinishEstimate(fit, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
   return est;
 }
 

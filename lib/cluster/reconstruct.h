@@ -208,7 +208,16 @@ struct SvbrdfEstimate {
   std::vector<std::string> cut_by_deadline;  // stages shortened or skipped by ReconstructOptions::deadline
 };
 
-SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options);
+// `fit_samples` (optional, a subset of `samples` on the same atlas): the
+// samples of steps 3-6 (model selection, final fits, weights); the split
+// search (steps 1-2) uses all of `samples`. The pipeline passes the samples
+// whose pixel footprint is wholly on the lit surface (ReconstructionJob::
+// fit_max_unlit_share): the others mix in another surface's or a shadow's
+// radiance, which no material explains, yet the split search needs every
+// texel's samples to keep its material count (dropping them before it gave
+// the Mitsuba bunny 4-5 materials at two of three hold-out seeds).
+SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options,
+                              const SampleSet* fit_samples = nullptr);
 
 // The partition of `previous` (its labels) kept, every basis material's model
 // chosen and fitted again on `samples` (step 3 on), then weights, quality and

@@ -99,6 +99,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     throw Error(Msg("reconstruct: time spent before the start must be >= 0 seconds, got ", job.time_spent_before_s));
   const auto start = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                             std::chrono::duration<double>(job.time_spent_before_s));
+  for (const auto& [name, v] : {std::pair{"--fit-max-unlit-share", job.fit_max_unlit_share},
+                                std::pair{"--fit-max-foreign-share", job.fit_max_foreign_share}})
+    if (!(v >= 0 && v <= 1)) throw Error(Msg("reconstruct: ", name, " must be in [0, 1], got ", v));
   timer.Start("load capture");
   const Scene scene = LoadScene(job.scene_path);
   if (scene.images.empty()) throw Error(Msg(job.scene_path, ": images: the capture has no photos"));
@@ -114,7 +117,29 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     eo.deadline = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                               std::chrono::duration<double>(job.time_budget_s - std::max(0.3, 0.05 * job.time_budget_s)));
   const auto cluster_start = std::chrono::steady_clock::now();
-  SvbrdfEstimate est = EstimateSvbrdf(g.samples, g.atlas, eo);
+  // The fits see only samples whose footprint is on the lit surface; the
+  // split search sees all (ReconstructionJob::fit_max_unlit_share).
+  std::vector<char> fit_keep(g.probes.size(), 1);
+  int64_t dropped = 0;
+  for (size_t s = 0; s < g.probes.size(); ++s) {
+    fit_keep[s] = g.probes[s].unlit <= job.fit_max_unlit_share && g.probes[s].foreign <= job.fit_max_foreign_share;
+    dropped += !fit_keep[s];
+  }
+  SvbrdfEstimate est;
+  if (dropped > 0 && dropped < g.samples.size()) {
+    SampleSet fit = KeepSamples(g.samples, fit_keep);
+    std::fprintf(stderr, "  footprint probe: %lld of %lld samples partly unlit or on another surface: split search only\n",
+                 static_cast<long long>(dropped), static_cast<long long>(g.samples.size()));
+    est = EstimateSvbrdf(g.samples, g.atlas, eo, &fit);
+    // The stages below (normals, merge, report) work on the fit samples.
+    g.samples = std::move(fit);
+    std::vector<SampleProbe> kept;
+    for (size_t s = 0; s < g.probes.size(); ++s)
+      if (fit_keep[s]) kept.push_back(g.probes[s]);
+    g.probes = std::move(kept);
+  } else {
+    est = EstimateSvbrdf(g.samples, g.atlas, eo);
+  }
   const double cluster_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - cluster_start).count();
 
   NormalOptions no = job.normals;
