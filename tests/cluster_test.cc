@@ -191,6 +191,40 @@ TEST(Cluster, ForcedCountsAndModelsAreHonoured) {
   for (const auto& b : est.basis) EXPECT_EQ(b.spec.Label(), "lafortune-2");
 }
 
+// The pipeline's footprint probe: samples partly in shadow (here a third of
+// their value missing) are seen by the split search but left out of the fits
+// and weights when passed as `fit_samples` without them.
+TEST(Cluster, FitSamplesLeaveFlaggedSamplesOutOfTheFits) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.5, 0.4, 0.3)};
+  SampleSet s = MakeSamples(truth, std::vector<int>(100, 0), 9);
+  std::vector<char> clean(s.size(), 1);
+  for (int64_t i = 0; i < s.size(); i += 4) {  // every fourth sample partly unlit
+    clean[i] = 0;
+    for (int c = 0; c < 3; ++c) s.y[c][i] *= 0.67f;
+  }
+  const SampleSet fit = KeepSamples(s, clean);
+  auto mean_albedo = [](const SvbrdfEstimate& est, int c) {  // weight x basis albedo, over texels
+    const int K = int(est.basis.size());
+    double sum = 0;
+    for (int t = 0; t < int(est.label.size()); ++t)
+      for (int k = 0; k < K; ++k) sum += est.weights[(size_t(t) * K + k) * 3 + c] * est.basis[k].params[c];
+    return sum / est.label.size();
+  };
+  ReconstructOptions o = Quiet();
+  o.candidate_models = {"lambert"};
+  const SvbrdfEstimate all = EstimateSvbrdf(s, LineAtlas(100), o);
+  const SvbrdfEstimate filtered = EstimateSvbrdf(s, LineAtlas(100), o, &fit);
+  ASSERT_EQ(filtered.basis.size(), 1u);
+  const double rd[3] = {0.5, 0.4, 0.3};
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(mean_albedo(filtered, c), rd[c], 0.01 * rd[c]) << "channel " << c;
+    EXPECT_LT(mean_albedo(all, c), 0.97 * rd[c]) << "channel " << c << ": the flagged samples bias a fit on all";
+  }
+  // Not a subset of the same texels: an error, not a silent wrong fit.
+  SampleSet other = MakeSamples(truth, std::vector<int>(50, 0), 9);
+  EXPECT_THROW(EstimateSvbrdf(s, LineAtlas(100), o, &other), Error);
+}
+
 TEST(Cluster, SparseTexelsGetNeighbourWeightsAndLowConfidence) {
   const std::vector<BasisMaterial> truth = {Lambert(0.5, 0.4, 0.3)};
   SampleSet s = MakeSamples(truth, std::vector<int>(50, 0), 8);
