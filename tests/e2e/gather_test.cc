@@ -298,6 +298,7 @@ TEST(Gather, FootprintProbeFindsShadowBoundariesAndEdges) {
   GatherOptions go;
   go.texture_size = o.material.texture_size;
   go.progress = false;
+  go.probe_rays = 0;  // off (the default is 2): no probes
   const GatherResult plain = Gather(scene, go);
   EXPECT_TRUE(plain.probes.empty());
   go.probe_rays = 2;
