@@ -74,6 +74,34 @@ TEST(Cli, WrongImageSizeNamesTheView) {
   fs::remove_all(dir);
 }
 
+double MeanPsnr(const std::string& evaluate_output) {
+  const size_t at = evaluate_output.find("mean PSNR ");
+  return at == std::string::npos ? -1.0 : std::stod(evaluate_output.substr(at + 10));
+}
+
+// Photos integrate their pixels (synth at 2 x 2 samples too): relight's
+// default does, until converged; --spp 1 (the pixel centre) is an option.
+TEST(Cli, RelightIntegratesThePixelByDefault) {
+  const std::string dir = Scratch("pixel");
+  // Photos at 2 x 2 samples a pixel, as the default preset's (tiny's own are at the centre).
+  ASSERT_EQ(RunCli("synth --preset tiny --images 3 --spp 2 --out " + dir + "/cap").code, 0);
+  const std::string scene = dir + "/cap/scene.json";
+  double psnr[3];
+  const char* options[3] = {"", "--spp 8 --adaptive-rounds 16", "--spp 1"};
+  for (int k = 0; k < 3; ++k) {
+    const std::string out = dir + "/relit" + std::to_string(k);
+    ASSERT_EQ(RunCli("relight " + dir + "/cap/gt " + scene + " --out " + out + " " + options[k]).code, 0) << options[k];
+    const Result e = RunCli("evaluate " + out + " " + scene);
+    ASSERT_EQ(e.code, 0) << e.output;
+    psnr[k] = MeanPsnr(e.output);
+    ASSERT_GT(psnr[k], 0) << e.output;
+  }
+  EXPECT_DOUBLE_EQ(psnr[0], psnr[1]);  // the default is the converged integral
+  EXPECT_GT(psnr[0], psnr[2] + 1.0);   // and the true material agrees with its photos better than at the centre
+  std::printf("true material vs its photos: default %.2f dB, pixel centre %.2f dB\n", psnr[0], psnr[2]);
+  fs::remove_all(dir);
+}
+
 TEST(Cli, EverySubcommandHasHelp) {
   for (const char* sub : {"synth", "relight", "reconstruct", "evaluate"}) {
     const Result r = RunCli(std::string(sub) + " --help");
