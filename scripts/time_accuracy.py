@@ -97,7 +97,9 @@ def write_md_png(results, out):
          "budget; budget 0 = no budget (reference). Wall and CPU time of the whole `reconstruct` process "
          "(`/usr/bin/time -v`). %d CPUs, shared with other work: load average %.1f at the start, so wall "
          "times are inflated; the budget is wall time, so under load a budget buys less work than on an idle "
-         "machine. Produced by `scripts/time_accuracy.py` on %s." % (results["nproc"], load[0], results["date"]), ""]
+         "machine. Held-out views relit with `svbrdf relight`'s default (each pixel integrated until converged, "
+         "since stop 21; before, the pixel centre). Produced by `scripts/time_accuracy.py` on %s."
+         % (results["nproc"], load[0], results["date"]), ""]
     for c in results["captures"]:
         L += ["## %s" % c["capture"], "", "| budget (s) | wall (s) | CPU (s) | load (1 min, after) | clusters | PSNR mean (dB) | PSNR min (dB) |",
               "|---:|---:|---:|---:|---:|---:|---:|"]
