@@ -15,5 +15,6 @@ void RegisterEvaluate(CLI::App& app, Runner* run);
 void RegisterCalibrate(CLI::App& app, Runner* run);
 void RegisterCapture(CLI::App& app, Runner* run);
 void RegisterExport(CLI::App& app, Runner* run);
+void RegisterImportPs(CLI::App& app, Runner* run);
 
 }  // namespace svbrdf::cli

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   svbrdf::cli::RegisterCalibrate(app, &run);
   svbrdf::cli::RegisterCapture(app, &run);
   svbrdf::cli::RegisterExport(app, &run);
+  svbrdf::cli::RegisterImportPs(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -20,6 +20,8 @@ namespace fs = std::filesystem;
 
 void CalibrateOptions::Check() const {
   board.Check();
+  if (model == CameraModelId::kOrthographic)
+    throw Error("calibrate: ORTHOGRAPHIC is not calibrated from boards (photometric rigs: svbrdf import-ps)");
   if (min_points < 4) throw Error("calibrate: min_points must be >= 4");
   if (!(reject_factor > 1)) throw Error("calibrate: reject_factor must be > 1");
   if (min_views < 1) throw Error("calibrate: min_views must be >= 1");
@@ -38,6 +40,7 @@ int CalibFlags(CameraModelId model) {
       return cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3;
     case CameraModelId::kRadial: return cv::CALIB_FIX_ASPECT_RATIO | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3;
     case CameraModelId::kOpenCV: return cv::CALIB_FIX_K3;
+    case CameraModelId::kOrthographic: break;  // rejected by CalibrateOptions::Check
   }
   return 0;
 }
@@ -56,6 +59,7 @@ Camera ToColmapCamera(CameraModelId model, int w, int h, const cv::Mat& K, const
     case CameraModelId::kSimpleRadial: c.params = {fx, cx, cy, k1}; break;
     case CameraModelId::kRadial: c.params = {fx, cx, cy, k1, k2}; break;
     case CameraModelId::kOpenCV: c.params = {fx, fy, cx, cy, k1, k2, p1, p2}; break;
+    case CameraModelId::kOrthographic: throw Error("calibrate: ORTHOGRAPHIC is not calibrated from boards");
   }
   return c;
 }

@@ -17,7 +17,7 @@ struct ModelInfo {
 constexpr ModelInfo kModels[] = {
     {CameraModelId::kSimplePinhole, "SIMPLE_PINHOLE", 3}, {CameraModelId::kPinhole, "PINHOLE", 4},
     {CameraModelId::kSimpleRadial, "SIMPLE_RADIAL", 4},   {CameraModelId::kRadial, "RADIAL", 5},
-    {CameraModelId::kOpenCV, "OPENCV", 8},
+    {CameraModelId::kOpenCV, "OPENCV", 8},        {CameraModelId::kOrthographic, "ORTHOGRAPHIC", 4},
 };
 
 const ModelInfo& Info(CameraModelId id) {
@@ -56,6 +56,7 @@ Vec2 Camera::Distort(const Vec2& xy) const {
   switch (model) {
     case CameraModelId::kSimplePinhole:
     case CameraModelId::kPinhole:
+    case CameraModelId::kOrthographic:
       return xy;
     case CameraModelId::kSimpleRadial:
       return xy * (1.0 + params[3] * r2);
@@ -74,7 +75,7 @@ Vec2 Camera::Distort(const Vec2& xy) const {
 }
 
 Vec2 Camera::Undistort(const Vec2& xy) const {
-  if (model == CameraModelId::kSimplePinhole || model == CameraModelId::kPinhole) return xy;
+  if (model == CameraModelId::kSimplePinhole || model == CameraModelId::kPinhole || IsOrthographic()) return xy;
   // Newton iterations on Distort(x) = xy with a central-difference Jacobian,
   // as COLMAP's IterativeUndistortion: distortion has no closed-form inverse.
   constexpr int kMaxIterations = 100;
@@ -100,14 +101,31 @@ Vec2 Camera::Undistort(const Vec2& xy) const {
 }
 
 Vec2 Camera::Project(const Vec3& x_cam) const {
+  if (IsOrthographic()) return Vec2(fx() * x_cam.x() + cx(), fy() * x_cam.y() + cy());
   const Vec2 d = Distort(Vec2(x_cam.x() / x_cam.z(), x_cam.y() / x_cam.z()));
   return Vec2(fx() * d.x() + cx(), fy() * d.y() + cy());
 }
 
 Vec3 Camera::Unproject(const Vec2& pixel) const {
+  if (IsOrthographic()) return Vec3(0, 0, 1);
   const Vec2 d((pixel.x() - cx()) / fx(), (pixel.y() - cy()) / fy());
   const Vec2 x = Undistort(d);
   return Vec3(x.x(), x.y(), 1.0);
+}
+
+void Camera::PixelRay(const Vec2& pixel, Vec3* origin, Vec3* direction) const {
+  if (IsOrthographic()) {
+    *origin = Vec3((pixel.x() - cx()) / fx(), (pixel.y() - cy()) / fy(), 0.0);
+    *direction = Vec3(0, 0, 1);
+    return;
+  }
+  *origin = Vec3::Zero();
+  *direction = Unproject(pixel);
+}
+
+Vec3 Camera::ToViewer(const Vec3& x_cam) const {
+  if (IsOrthographic()) return Vec3(0, 0, -1);
+  return (-x_cam).normalized();
 }
 
 Rigid3 Rigid3::Inverse() const {

@@ -147,8 +147,52 @@ struct Bounds {
   double Radius() const { return 0.5 * (hi - lo).norm(); }
 };
 
+void AddSamplerAndFilm(const Camera& cam, int spp, XmlElement* s) {
+  XmlElement& sampler = s->Add(XmlElement("sampler"));
+  sampler.Attr("type", "independent");
+  sampler.Add(Named("integer", "sample_count", std::to_string(spp)));
+  XmlElement& film = s->Add(XmlElement("film"));
+  film.Attr("type", "hdrfilm");
+  film.Add(Named("integer", "width", std::to_string(cam.width)));
+  film.Add(Named("integer", "height", std::to_string(cam.height)));
+  film.Add(Named("string", "pixel_format", "rgb"));
+  film.Add(Named("string", "component_format", "float32"));
+  film.Add(XmlElement("rfilter")).Attr("type", "box");
+}
+
+// Mitsuba's orthographic sensor sees [-1, 1] x [-1/aspect, 1/aspect] of its
+// local XY plane along +z (x to the left, y up); to_world scales that square
+// to the film's extent in metres and moves its centre to the film centre.
+XmlElement OrthographicSensor(const Camera& cam, const Rigid3& cam_from_world, const Bounds& bounds, int spp,
+                              json* warnings, const std::string& where) {
+  XmlElement s("sensor");
+  s.Attr("type", "orthographic");
+  const double sx = cam.fx(), sy = cam.fy();
+  if (std::abs(sx - sy) > 1e-6 * sx)
+    warnings->push_back(Msg(where, ": sx = ", sx, " and sy = ", sy, " differ; Mitsuba has square pixels, sy is ignored"));
+  const double half_width = 0.5 * cam.width / sx;  // metres
+  const Vec3 centre_cam((0.5 * cam.width - cam.cx()) / sx, (0.5 * cam.height - cam.cy()) / sx, 0.0);
+  const Rigid3 world_from_cam = cam_from_world.Inverse();
+  const Vec3 origin = world_from_cam * centre_cam;
+  const double dist = std::abs((cam_from_world * bounds.Centre()).z());
+  s.Add(Named("float", "near_clip", XmlNumber(1e-5)));
+  s.Add(Named("float", "far_clip", XmlNumber(10 * (dist + bounds.Radius()))));
+  const Mat3 r = world_from_cam.rotation.toRotationMatrix();
+  std::string m;
+  for (int i = 0; i < 3; ++i)
+    m += Msg(XmlNumber(-half_width * r(i, 0)), " ", XmlNumber(-half_width * r(i, 1)), " ", XmlNumber(r(i, 2)), " ",
+             XmlNumber(origin[i]), " ");
+  m += "0 0 0 1";
+  XmlElement& tr = s.Add(XmlElement("transform"));
+  tr.Attr("name", "to_world");
+  tr.Add(XmlElement("matrix")).Attr("value", m);
+  AddSamplerAndFilm(cam, spp, &s);
+  return s;
+}
+
 XmlElement Sensor(const Camera& cam, const Rigid3& cam_from_world, const Bounds& bounds, int spp, json* warnings,
                   const std::string& where) {
+  if (cam.IsOrthographic()) return OrthographicSensor(cam, cam_from_world, bounds, spp, warnings, where);
   XmlElement s("sensor");
   s.Attr("type", "perspective");
   const double fx = cam.fx(), fy = cam.fy();
@@ -185,16 +229,7 @@ XmlElement Sensor(const Camera& cam, const Rigid3& cam_from_world, const Bounds&
   XmlElement& tr = s.Add(XmlElement("transform"));
   tr.Attr("name", "to_world");
   tr.Add(XmlElement("matrix")).Attr("value", m);
-  XmlElement& sampler = s.Add(XmlElement("sampler"));
-  sampler.Attr("type", "independent");
-  sampler.Add(Named("integer", "sample_count", std::to_string(spp)));
-  XmlElement& film = s.Add(XmlElement("film"));
-  film.Attr("type", "hdrfilm");
-  film.Add(Named("integer", "width", std::to_string(cam.width)));
-  film.Add(Named("integer", "height", std::to_string(cam.height)));
-  film.Add(Named("string", "pixel_format", "rgb"));
-  film.Add(Named("string", "component_format", "float32"));
-  film.Add(XmlElement("rfilter")).Attr("type", "box");
+  AddSamplerAndFilm(cam, spp, &s);
   return s;
 }
 

@@ -230,6 +230,12 @@ double MedianPixelFootprint(const Scene& scene, const Mesh& mesh, double min_cos
 
 GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   options.Check();
+  // Texel gathering follows rays from each camera's centre; an orthographic
+  // rig has one fixed view and takes the per-pixel path (lib/photometric).
+  for (const Camera& cam : scene.cameras)
+    if (cam.IsOrthographic())
+      throw Error(Msg("camera ", cam.id, ": ORTHOGRAPHIC cameras are reconstructed per pixel (one fixed view, "
+                      "directional lights: lib/photometric); the texel gather needs perspective cameras"));
   GatherResult out;
   out.mesh = LoadMesh(scene.Resolve(scene.mesh));
   out.mesh.Validate(scene.Resolve(scene.mesh));

@@ -7,6 +7,7 @@
 //    "normal_map_space": "tangent",               // optional, "world" (absent) or "tangent" (io/normal_map_space.h)
 //    "confidence": "confidence.exr",              // optional, 1 channel
 //    "material_id": "material_id.png",            // optional, integer basis index per texel
+//    "texture_filter": "nearest",                 // optional, "bilinear" (absent) or "nearest"
 //    "info": {...}}                               // optional, free-form provenance
 #include "io/material.h"
 
@@ -114,7 +115,7 @@ Material LoadMaterial(const std::string& dir) {
   const json j = ReadJsonFile(file);
   const JsonField root(j, file);
   root.AllowOnly({"format", "mesh", "resolution", "basis", "weights", "normal_map", "normal_map_space", "confidence",
-                  "material_id", "info"});
+                  "material_id", "texture_filter", "info"});
   const std::string format = root.Get<std::string>("format");
   if (format != kMaterialFormat) root.FailAt("format", Msg("expected \"", kMaterialFormat, "\", got \"", format, "\""));
 
@@ -171,6 +172,11 @@ Material LoadMaterial(const std::string& dir) {
     throw Error(Msg(file, ": ", e.what()));
   }
   LoadOptionalMap(root, dir, "material_id", 1, m.width, m.height, true, &m.material_id);
+  if (root.Has("texture_filter")) {
+    const std::string filter = root.Get<std::string>("texture_filter");
+    if (filter == "nearest") m.texture_filter = TextureFilter::kNearest;
+    else if (filter != "bilinear") root.FailAt("texture_filter", Msg("expected \"bilinear\" or \"nearest\", got \"", filter, "\""));
+  }
   if (root.Has("info")) m.extra = j["info"];
   return m;
 }
@@ -221,6 +227,7 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
       WriteLabelImage((tmp / "material_id.png").string(), m.material_id);
       j["material_id"] = "material_id.png";
     }
+    if (m.texture_filter == TextureFilter::kNearest) j["texture_filter"] = "nearest";
     if (!m.extra.is_null()) j["info"] = m.extra;
     WriteFileAtomic((tmp / "material.json").string(), j.dump(2) + "\n");
   } catch (const fs::filesystem_error& e) {

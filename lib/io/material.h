@@ -21,6 +21,12 @@ struct BasisMaterial {
   std::vector<double> params;  // in spec.Params() order
 };
 
+// How renderers read the maps between texel centres. kNearest suits maps
+// with one texel per photo pixel (photometric captures, lib/photometric):
+// each texel holds that pixel's own fit, so a pixel-integrating render must
+// not blend it with its neighbours'.
+enum class TextureFilter { kBilinear, kNearest };
+
 struct Material {
   std::string dir;               // folder of material.json
   Mesh mesh;
@@ -32,6 +38,7 @@ struct Material {
   NormalMapSpace normal_map_space = NormalMapSpace::kWorld;  // material.json "normal_map_space" (absent = world)
   Image confidence;              // 1 channel in [0,1]; empty when absent
   Image material_id;             // 1 channel, integer ids (basis index); empty when absent
+  TextureFilter texture_filter = TextureFilter::kBilinear;  // material.json "texture_filter" (absent = bilinear)
   nlohmann::json extra;          // free-form provenance (written as "info")
 };
 

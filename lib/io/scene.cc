@@ -196,7 +196,7 @@ std::string Scene::Resolve(const std::string& relative) const {
 
 Scene ParseScene(const json& j, const std::string& dir, const std::string& context) {
   const JsonField root(j, context);
-  root.AllowOnly({"format", "mesh", "images_color_space", "cameras", "lights", "images", "ground_truth"});
+  root.AllowOnly({"format", "mesh", "mesh_normals", "images_color_space", "cameras", "lights", "images", "ground_truth"});
   const std::string format = root.Get<std::string>("format");
   if (format != kSceneFormat)
     root.FailAt("format", Msg("expected \"", kSceneFormat, "\", got \"", format, "\""));
@@ -209,6 +209,10 @@ Scene ParseScene(const json& j, const std::string& dir, const std::string& conte
   if (space != "linear" && space != "srgb")
     root.FailAt("images_color_space", Msg("expected \"linear\" or \"srgb\", got \"", space, "\""));
   s.images_color_space = space == "srgb" ? ColorSpace::kSRGB : ColorSpace::kLinear;
+  const std::string normals = root.GetOr<std::string>("mesh_normals", "given");
+  if (normals != "given" && normals != "unknown")
+    root.FailAt("mesh_normals", Msg("expected \"given\" or \"unknown\", got \"", normals, "\""));
+  s.mesh_normals_known = normals == "given";
 
   const std::vector<JsonField> cameras = root.Items("cameras"), lights = root.Items("lights");
   for (const JsonField& f : cameras) s.cameras.push_back(ParseCamera(f));
@@ -235,6 +239,7 @@ json SceneToJson(const Scene& s) {
   json j = {{"format", kSceneFormat},
             {"mesh", s.mesh},
             {"images_color_space", s.images_color_space == ColorSpace::kSRGB ? "srgb" : "linear"}};
+  if (!s.mesh_normals_known) j["mesh_normals"] = "unknown";
   j["cameras"] = json::array();
   for (const Camera& c : s.cameras)
     j["cameras"].push_back(

@@ -28,6 +28,10 @@ struct Scene {
   std::vector<Light> lights;   // goniometric lights have their IES profile loaded
   std::vector<ImageEntry> images;
   nlohmann::json ground_truth; // null when absent
+  // scene.json "mesh_normals": "given" (absent) or "unknown": the mesh's
+  // normals are placeholders (a photometric capture without a scan), so the
+  // reconstruction estimates them from the photos (lib/photometric).
+  bool mesh_normals_known = true;
 
   const Camera& CameraById(int id) const;  // throws Error if unknown
   const Light& LightById(int id) const;    // throws Error if unknown

@@ -14,6 +14,8 @@
 #include "io/scene.h"
 #include "normals/normal_map.h"
 #include "pipeline/normal_stage.h"
+#include "pipeline/photometric_stage.h"
+#include "photometric/observations.h"
 #include "pipeline/report_html.h"
 #include "relight/relight.h"
 
@@ -30,25 +32,6 @@ Image TexelMap(const Atlas& atlas, const std::vector<float>& values) {
   return img;
 }
 
-// A photo next to its relit twin and their difference, written as PNGs.
-nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t index, const std::string& dir,
-                         const std::string& tag) {
-  const ImageEntry& e = scene.images[index];
-  RayTracer tracer(material.mesh);
-  MaterialShader shader(material);
-  RelightOptions ro;
-  ro.progress = false;
-  RenderedView v = RenderView(tracer, shader, scene, index, ro);
-  const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
-  Image mask;
-  if (!e.mask.empty()) mask = ReadImage(scene.Resolve(e.mask));
-  const ImageMetrics m = CompareImages(photo, v.color, e.mask.empty() ? nullptr : &mask, e.exposure);
-  WriteImage(dir + "/" + tag + "_photo.png", photo, PixelFormat::kUInt8, ColorSpace::kSRGB);
-  WriteImage(dir + "/" + tag + "_relit.png", v.color, PixelFormat::kUInt8, ColorSpace::kSRGB);
-  WriteImage(dir + "/" + tag + "_error.png", ErrorMap(photo, v.color, 0.05 * e.exposure), PixelFormat::kUInt8,
-             ColorSpace::kLinear);
-  return {{"view", e.file}, {"psnr_srgb", m.psnr_srgb}, {"rel_rmse_linear", m.rel_rmse_linear}};
-}
 
 // The normal map as colours (xyz -> rgb = (n + 1) / 2) and, when the capture
 // has a ground-truth material on the same texture coordinates, the angle
@@ -91,6 +74,25 @@ nlohmann::json WriteNormalPictures(const Scene& scene, const GatherResult& g, co
 
 }  // namespace
 
+nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t index, const std::string& dir,
+                         const std::string& tag) {
+  const ImageEntry& e = scene.images[index];
+  RayTracer tracer(material.mesh);
+  MaterialShader shader(material);
+  RelightOptions ro;
+  ro.progress = false;
+  RenderedView v = RenderView(tracer, shader, scene, index, ro);
+  const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
+  Image mask;
+  if (!e.mask.empty()) mask = ReadImage(scene.Resolve(e.mask));
+  const ImageMetrics m = CompareImages(photo, v.color, e.mask.empty() ? nullptr : &mask, e.exposure);
+  WriteImage(dir + "/" + tag + "_photo.png", photo, PixelFormat::kUInt8, ColorSpace::kSRGB);
+  WriteImage(dir + "/" + tag + "_relit.png", v.color, PixelFormat::kUInt8, ColorSpace::kSRGB);
+  WriteImage(dir + "/" + tag + "_error.png", ErrorMap(photo, v.color, 0.05 * e.exposure), PixelFormat::kUInt8,
+             ColorSpace::kLinear);
+  return {{"view", e.file}, {"psnr_srgb", m.psnr_srgb}, {"rel_rmse_linear", m.rel_rmse_linear}};
+}
+
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   StageTimer timer;
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
@@ -105,6 +107,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   timer.Start("load capture");
   const Scene scene = LoadScene(job.scene_path);
   if (scene.images.empty()) throw Error(Msg(job.scene_path, ": images: the capture has no photos"));
+  // One fixed orthographic view under directional lights: per pixel.
+  if (IsPhotometricCapture(scene)) return RunPhotometricReconstruction(job, scene, &timer);
 
   timer.Start("gather samples");
   GatherResult g = Gather(scene, job.gather);

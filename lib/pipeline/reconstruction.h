@@ -9,7 +9,10 @@
 
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
+#include "io/material.h"
+#include "io/scene.h"
 #include "normals/refine.h"
+#include "photometric/dictionary_fit.h"
 #include "pipeline/merge_stage.h"
 #include "pipeline/normal_stage.h"
 
@@ -44,6 +47,11 @@ struct ReconstructionJob {
   // 1 / 2 / 3: see README "Footprint probe". 1 = keep them everywhere.
   double fit_max_unlit_share = 0.1;
   double fit_max_foreign_share = 0.01;
+  // Photometric captures (one fixed orthographic view, directional lights;
+  // lib/photometric): the per-pixel dictionary fit, and how many rounds of
+  // basis selection <-> normal refinement estimate unknown normals.
+  DictionaryFitOptions photometric;
+  int photometric_normal_rounds = 2;
   // Called on the gathered samples before the estimate (bench tools: e.g.
   // an oracle that drops samples by their disagreement with a known truth).
   std::function<void(GatherResult&)> after_gather;
@@ -51,5 +59,10 @@ struct ReconstructionJob {
 
 // Returns the summary (also written to out_dir/report/summary.json).
 nlohmann::json RunReconstruction(const ReconstructionJob& job);
+
+// Report pictures of image entry `index` of `scene`: dir/<tag>_photo.png,
+// _relit.png (relit with `material`) and _error.png; returns their PSNR.
+nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t index, const std::string& dir,
+                         const std::string& tag);
 
 }  // namespace svbrdf

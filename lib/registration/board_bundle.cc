@@ -71,6 +71,9 @@ BundleResult AdjustBoardBundle(const Camera& camera, const std::vector<Rigid3>& 
         case CameraModelId::kSimpleRadial: f = new ceres::AutoDiffCostFunction<BoardPointCost, 2, 4, 4, 3>(cost); break;
         case CameraModelId::kRadial: f = new ceres::AutoDiffCostFunction<BoardPointCost, 2, 5, 4, 3>(cost); break;
         case CameraModelId::kOpenCV: f = new ceres::AutoDiffCostFunction<BoardPointCost, 2, 8, 4, 3>(cost); break;
+        case CameraModelId::kOrthographic:
+          delete cost;
+          throw Error("bundle: ORTHOGRAPHIC cameras (photometric rigs) are not calibrated from boards");
       }
       problem.AddResidualBlock(f, new ceres::HuberLoss(o.huber_px), r.camera.params.data(), q[v].data(), t[v].data());
     }

@@ -15,7 +15,10 @@ void ProjectT(CameraModelId model, const T* params, const T* x_cam, T* pixel) {
   T du = u, dv = v, fx = T(0), fy = T(0), cx = T(0), cy = T(0);
   switch (model) {
     case CameraModelId::kSimplePinhole: fx = fy = params[0], cx = params[1], cy = params[2]; break;
-    case CameraModelId::kPinhole: fx = params[0], fy = params[1], cx = params[2], cy = params[3]; break;
+    case CameraModelId::kPinhole:
+    case CameraModelId::kOrthographic:  // never reaches here: board bundles reject it (board_bundle.cc)
+      fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+      break;
     case CameraModelId::kSimpleRadial:
       fx = fy = params[0], cx = params[1], cy = params[2];
       du = u * (T(1) + params[3] * r2), dv = v * (T(1) + params[3] * r2);

@@ -11,14 +11,15 @@ RenderedView RenderViewEnvironment(const RayTracer& tracer, const MaterialShader
   const ImageEntry& entry = scene.images.at(index);
   const Camera& cam = scene.CameraById(entry.camera);
   const Rigid3 world_from_cam = entry.cam_from_world.Inverse();
-  const Vec3 eye = world_from_cam.translation;
   const double scene_scale = 1e-4;  // shadow-ray offset, as RenderView
   const int n = options.env_samples;
 
   auto radiance = [&](double px, double py, Rng& rng, bool* hit_out) -> Rgb {
-    const Vec3 dir = world_from_cam.rotation * cam.Unproject(Vec2(px, py));
+    Vec3 origin_cam, dir_cam;
+    cam.PixelRay(Vec2(px, py), &origin_cam, &dir_cam);
+    const Vec3 dir = world_from_cam.rotation * dir_cam;
     Hit hit;
-    if (!tracer.Intersect(eye, dir, &hit)) {
+    if (!tracer.Intersect(world_from_cam * origin_cam, dir, &hit)) {
       *hit_out = false;
       return Rgb::Zero();
     }
@@ -28,7 +29,7 @@ RenderedView RenderViewEnvironment(const RayTracer& tracer, const MaterialShader
     const Vec3 dpdu = tracer.mesh().FaceDpDu(hit.prim);
     const Vec3 n_shade = shader.Normal(uv, tracer.ShadingNormal(hit), dpdu);
     const Frame frame = Frame::FromNormalTangent(n_shade, dpdu);
-    const Vec3 wo = (eye - x).normalized();
+    const Vec3 wo = -dir.normalized();  // towards the viewer (the eye, or -z of an orthographic camera)
     // Shadow rays leave on the viewer's side of the triangle.
     const Vec3 ng = hit.geometric_normal.dot(wo) >= 0 ? hit.geometric_normal : Vec3(-hit.geometric_normal);
     const Vec3 origin = x + ng * scene_scale;

@@ -102,15 +102,17 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
 
   // Radiance arriving at the camera along a pixel-coordinate ray (0 on a miss).
   auto shade = [&](double px, double py, Rng& rng, bool* hit_out) -> Rgb {
-    const Vec3 dir = world_from_cam.rotation * cam.Unproject(Vec2(px, py));
+    Vec3 origin_cam, dir_cam;
+    cam.PixelRay(Vec2(px, py), &origin_cam, &dir_cam);
+    const Vec3 dir = world_from_cam.rotation * dir_cam;
     Hit hit;
-    if (!tracer.Intersect(eye, dir, &hit)) {
+    if (!tracer.Intersect(world_from_cam * origin_cam, dir, &hit)) {
       *hit_out = false;
       return Rgb::Zero();
     }
     *hit_out = true;
     const Vertex v = vertex(hit);
-    const Vec3 wo = (eye - v.x).normalized();
+    const Vec3 wo = -dir.normalized();  // towards the viewer (the eye, or -z of an orthographic camera)
     Rgb radiance = direct(v, wo);
     if (options.bounces > 0) radiance += indirect(v, wo, rng);
     return radiance;

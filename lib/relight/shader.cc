@@ -1,5 +1,6 @@
 #include "relight/shader.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "atlas/atlas.h"
@@ -8,10 +9,16 @@ namespace svbrdf {
 
 namespace {
 
-// Bilinear lookup of channel c of a texture map at uv, clamped at the border.
-Rgb SampleMap(const Image& map, const Vec2& uv) {
+// Lookup of a texture map at uv (bilinear or the nearest texel), clamped at the border.
+Rgb SampleMap(const Image& map, const Vec2& uv, TextureFilter filter) {
   const Vec2 p = UvToTexel(uv, map.width, map.height);
   Rgb out;
+  if (filter == TextureFilter::kNearest) {
+    const int x = std::clamp(int(std::floor(p.x())), 0, map.width - 1);
+    const int y = std::clamp(int(std::floor(p.y())), 0, map.height - 1);
+    for (int c = 0; c < 3; ++c) out[c] = map.at(x, y, std::min(c, map.channels - 1));
+    return out;
+  }
   for (int c = 0; c < 3; ++c) out[c] = map.Bilinear(p.x(), p.y(), std::min(c, map.channels - 1));
   return out;
 }
@@ -22,12 +29,12 @@ MaterialShader::MaterialShader(const Material& material) : material_(material) {
 
 void MaterialShader::Weights(const Vec2& uv, std::vector<Rgb>* w) const {
   w->resize(material_.basis.size());
-  for (size_t k = 0; k < material_.basis.size(); ++k) (*w)[k] = SampleMap(material_.weights[k], uv);
+  for (size_t k = 0; k < material_.basis.size(); ++k) (*w)[k] = SampleMap(material_.weights[k], uv, material_.texture_filter);
 }
 
 Vec3 MaterialShader::Normal(const Vec2& uv, const Vec3& smooth_normal, const Vec3& dpdu) const {
   if (material_.normal_map.width == 0) return smooth_normal;
-  const Rgb n = SampleMap(material_.normal_map, uv);
+  const Rgb n = SampleMap(material_.normal_map, uv, material_.texture_filter);
   // A tangent-space value is applied in the frame of this point, not of
   // the texel centres it was interpolated from: the mesh's turn is kept.
   return NormalFromMapValue(Vec3(n[0], n[1], n[2]), material_.normal_map_space, smooth_normal, dpdu);
@@ -38,7 +45,7 @@ Rgb MaterialShader::Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_worl
   if (wi.z() <= 0 || wo.z() <= 0) return Rgb::Zero();
   Rgb f = Rgb::Zero();
   for (size_t k = 0; k < material_.basis.size(); ++k) {
-    const Rgb w = SampleMap(material_.weights[k], uv);
+    const Rgb w = SampleMap(material_.weights[k], uv, material_.texture_filter);
     if ((w <= 0).all()) continue;
     const BasisMaterial& b = material_.basis[k];
     f += w * EvalModelD(b.spec, b.params.data(), wi, wo);

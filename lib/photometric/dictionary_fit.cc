@@ -1,0 +1,307 @@
+#include "photometric/dictionary_fit.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "brdf/model.h"
+#include "cluster/nnls.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+
+namespace svbrdf {
+
+namespace {
+
+void SetParam(BasisMaterial* b, const std::string& name, double value) {
+  const std::vector<ParamInfo> info = b->spec.Params();
+  for (size_t i = 0; i < info.size(); ++i)
+    if (info[i].name == name) {
+      b->params[i] = value;
+      return;
+    }
+  throw Error(Msg("internal: model ", b->spec.Label(), " has no parameter ", name));
+}
+
+BasisMaterial Make(const std::string& name, const std::string& label) {
+  BasisMaterial b;
+  b.name = name;
+  b.spec = ModelSpec::FromLabel(label);
+  b.params = b.spec.InitialParams();
+  return b;
+}
+
+void SetRgb(BasisMaterial* b, const std::string& prefix, double v) {
+  for (const char* c : {"_r", "_g", "_b"}) SetParam(b, prefix + c, v);
+}
+
+double Luminance(const float* v) { return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]; }
+
+// The rows of one pixel's least-squares problem.
+struct Rows {
+  std::vector<Eigen::VectorXd> a;  // weighted basis values (K)
+  std::vector<double> b;           // weighted observation
+  std::vector<int> light, channel;
+};
+
+// Which photos a solve uses beyond `use` and the shadow flags.
+struct Gates {
+  bool min_cos = true;  // leave out grazing light
+  bool robust = true;   // refit without outliers
+};
+
+Rows BuildRows(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n, int channels,
+               const std::vector<uint8_t>* use, const uint8_t* shadowed, const DictionaryFitOptions& o, const Gates& g) {
+  Rows r;
+  const Frame fr = Frame::FromNormal(n);
+  const Vec3 wo = fr.ToLocal(obs.to_viewer);
+  const int K = int(basis.size());
+  for (int l = 0; l < obs.lights; ++l) {
+    if (use && !(*use)[l]) continue;
+    if (shadowed && shadowed[l]) continue;
+    const size_t i = obs.At(p, l);
+    const Vec3 wi = fr.ToLocal(obs.to_light[l]);
+    if (g.min_cos && wi.z() < o.min_cos) continue;
+    Eigen::VectorXd a = Eigen::VectorXd::Zero(K);
+    if (wi.z() > 0 && wo.z() > 0)
+      for (int k = 0; k < K; ++k) a[k] = EvalModelD(basis[k].spec, basis[k].params.data(), wi, wo)[0] * wi.z();
+    if (channels == 1) {
+      if (obs.weight[i] <= 0 || obs.weight[i + 1] <= 0 || obs.weight[i + 2] <= 0) continue;
+      const double sw = std::sqrt((double(obs.weight[i]) * obs.weight[i] + double(obs.weight[i + 1]) * obs.weight[i + 1] +
+                                   double(obs.weight[i + 2]) * obs.weight[i + 2]) / 3);
+      r.a.push_back(a * sw), r.b.push_back(Luminance(&obs.value[i]) * sw), r.light.push_back(l), r.channel.push_back(0);
+    } else {
+      for (int c = 0; c < 3; ++c) {
+        const double sw = obs.weight[i + c];
+        if (sw <= 0) continue;
+        r.a.push_back(a * sw), r.b.push_back(obs.value[i + c] * sw), r.light.push_back(l), r.channel.push_back(c);
+      }
+    }
+  }
+  return r;
+}
+
+// NNLS per channel over the rows with keep[i]; residuals into `res`.
+PixelSolve Solve(const Rows& r, int K, int channels, const std::vector<char>& keep, std::vector<double>* res) {
+  PixelSolve s;
+  s.w = Eigen::MatrixXd::Zero(K, channels);
+  for (int c = 0; c < channels; ++c) {
+    Eigen::MatrixXd AtA = Eigen::MatrixXd::Zero(K, K);
+    Eigen::VectorXd Atb = Eigen::VectorXd::Zero(K);
+    int rows = 0;
+    for (size_t i = 0; i < r.b.size(); ++i)
+      if (keep[i] && r.channel[i] == c) {
+        AtA.noalias() += r.a[i] * r.a[i].transpose();
+        Atb += r.b[i] * r.a[i];
+        ++rows;
+      }
+    if (rows == 0) continue;
+    // A weak ridge: neighbouring lobes are nearly collinear over one pixel's
+    // photos, and without it they may trade huge opposite weights.
+    AtA.diagonal().array() += 1e-4 * AtA.diagonal().mean() + 1e-30;
+    s.w.col(c) = NnlsNormal(AtA, Atb);
+  }
+  res->assign(r.b.size(), 0.0);
+  for (size_t i = 0; i < r.b.size(); ++i) {
+    (*res)[i] = r.b[i] - r.a[i].dot(s.w.col(r.channel[i]));
+    if (keep[i]) s.sse += (*res)[i] * (*res)[i], s.used += 1;
+  }
+  return s;
+}
+
+PixelSolve SolveRows(const Rows& r, int K, int channels, const DictionaryFitOptions& o, bool robust,
+                     std::vector<char>* keep_out = nullptr) {
+  std::vector<char> keep(r.b.size(), 1);
+  std::vector<double> res;
+  PixelSolve s = Solve(r, K, channels, keep, &res);
+  if (robust && o.outlier_sigmas > 0 && r.b.size() > size_t(4 * K)) {
+    std::vector<double> mag(res.size());
+    for (size_t i = 0; i < res.size(); ++i) mag[i] = std::abs(res[i]);
+    std::nth_element(mag.begin(), mag.begin() + mag.size() / 2, mag.end());
+    const double scale = 1.4826 * mag[mag.size() / 2];
+    bool any = false;
+    for (size_t i = 0; i < res.size(); ++i)
+      if (std::abs(res[i]) > o.outlier_sigmas * scale && scale > 0) keep[i] = 0, any = true;
+    if (any) s = Solve(r, K, channels, keep, &res);
+  }
+  if (keep_out) *keep_out = keep;
+  return s;
+}
+
+Vec3 NormalAt(const Image& normals_cam, int pixel, int width) {
+  const int x = pixel % width, y = pixel / width;
+  return Vec3(normals_cam.at(x, y, 0), normals_cam.at(x, y, 1), normals_cam.at(x, y, 2));
+}
+
+const uint8_t* ShadowRow(const std::vector<uint8_t>& shadowed, long p, int lights) {
+  return shadowed.empty() ? nullptr : &shadowed[size_t(p) * lights];
+}
+
+}  // namespace
+
+std::vector<BasisMaterial> DictionaryCandidates() {
+  std::vector<BasisMaterial> out;
+  BasisMaterial lambert = Make("diffuse", "lambert");
+  SetRgb(&lambert, "rd", 1.0);
+  out.push_back(lambert);
+  for (double sigma : {0.3, 0.6}) {
+    BasisMaterial on = Make(Msg("oren_nayar_sigma", sigma), "oren_nayar");
+    SetRgb(&on, "rd", 1.0);
+    SetParam(&on, "sigma", sigma);
+    out.push_back(on);
+  }
+  const struct {
+    const char* label;
+    const char* tag;
+  } lobes[] = {{"cook_torrance-beckmann-nofresnel", "beckmann"}, {"cook_torrance-ggx-smith-nofresnel", "ggx"}};
+  for (const auto& lobe : lobes)
+    for (double m : {0.04, 0.08, 0.14, 0.22, 0.35, 0.5}) {
+      BasisMaterial b = Make(Msg("specular_", lobe.tag, "_m", m), lobe.label);
+      SetRgb(&b, "rd", 0.0);
+      SetRgb(&b, "rs", 1.0);
+      SetParam(&b, "roughness", m);
+      out.push_back(b);
+    }
+  return out;
+}
+
+void DictionaryFitOptions::Check() const {
+  if (folds < 2 || folds > 10) throw Error(Msg("photometric: folds must be in [2, 10], got ", folds));
+  if (selection_pixels < 50) throw Error(Msg("photometric: selection_pixels must be >= 50, got ", selection_pixels));
+  if (!(min_gain >= 0 && min_gain < 1)) throw Error(Msg("photometric: min_gain must be in [0, 1), got ", min_gain));
+  if (max_basis < 1 || max_basis > 8) throw Error(Msg("photometric: max_basis must be in [1, 8], got ", max_basis));
+  if (outlier_sigmas != 0 && !(outlier_sigmas > 1))
+    throw Error(Msg("photometric: outlier_sigmas must be > 1 or 0, got ", outlier_sigmas));
+  if (!(min_cos >= 0 && min_cos <= 0.5)) throw Error(Msg("photometric: min_cos must be in [0, 0.5], got ", min_cos));
+}
+
+PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n,
+                      int channels, const std::vector<uint8_t>* use, const uint8_t* shadowed,
+                      const DictionaryFitOptions& o) {
+  const Rows r = BuildRows(obs, basis, p, n, channels, use, shadowed, o, Gates{});
+  return SolveRows(r, int(basis.size()), channels, o, true);
+}
+
+BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, const std::vector<uint8_t>& shadowed,
+                           const DictionaryFitOptions& o) {
+  o.Check();
+  const std::vector<BasisMaterial> dict = DictionaryCandidates();
+  const long P = obs.P();
+  const long stride = std::max<long>(1, P / o.selection_pixels);
+  std::vector<long> subset;
+  for (long p = stride / 2; p < P; p += stride) subset.push_back(p);
+  // Cross-validated luminance error of a basis: each fold's photos predicted
+  // from the others.
+  auto cv_error = [&](const std::vector<BasisMaterial>& basis) {
+    std::vector<double> err(subset.size(), 0.0);
+    ParallelFor(long(subset.size()), o.threads, [&](long s) {
+      const long p = subset[s];
+      const Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
+      const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
+      for (int f = 0; f < o.folds; ++f) {
+        std::vector<uint8_t> train(obs.lights), test(obs.lights);
+        for (int l = 0; l < obs.lights; ++l) train[l] = l % o.folds != f, test[l] = !train[l];
+        const PixelSolve fit = SolvePixel(obs, basis, p, n, 1, &train, sh, o);
+        const Rows r = BuildRows(obs, basis, p, n, 1, &test, sh, o, Gates{true, false});
+        for (size_t i = 0; i < r.b.size(); ++i) {
+          const double e = r.b[i] - r.a[i].dot(fit.w.col(0));
+          err[s] += e * e;
+        }
+      }
+    }, 16);
+    double sum = 0;
+    for (double e : err) sum += e;
+    return sum;
+  };
+  BasisSelection sel;
+  sel.basis = {dict[0]};
+  sel.cv_error.push_back(cv_error(sel.basis));
+  sel.log.push_back(Msg("diffuse: cross-validated error ", sel.cv_error.back()));
+  std::vector<char> taken(dict.size(), 0);
+  taken[0] = 1;
+  while (int(sel.basis.size()) < o.max_basis) {
+    int best = -1;
+    double best_err = 0;
+    for (size_t c = 1; c < dict.size(); ++c) {
+      if (taken[c]) continue;
+      std::vector<BasisMaterial> trial = sel.basis;
+      trial.push_back(dict[c]);
+      const double e = cv_error(trial);
+      if (best < 0 || e < best_err) best = int(c), best_err = e;
+    }
+    if (best < 0) break;
+    const double gain = 1.0 - best_err / sel.cv_error.back();
+    const bool accept = gain > o.min_gain;
+    sel.log.push_back(Msg("+ ", dict[best].name, ": cross-validated error ", best_err, " (", 100 * gain, " % lower): ",
+                          accept ? "kept" : "rejected"));
+    if (!accept) break;
+    taken[best] = 1;
+    sel.basis.push_back(dict[best]);
+    sel.cv_error.push_back(best_err);
+  }
+  return sel;
+}
+
+Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>& basis, const Image& normals_cam,
+                    const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o) {
+  Image out = normals_cam;
+  const int K = int(basis.size());
+  Progress bar("refine normals", obs.P(), true);
+  ParallelFor(obs.P(), o.threads, [&](long p) {
+    Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
+    const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
+    // The photos (and rows) the search scores on are fixed at the start, so
+    // that every candidate normal is judged on the same data.
+    const Rows r0 = BuildRows(obs, basis, p, n, 1, nullptr, sh, o, Gates{});
+    if (r0.b.size() < size_t(K + 3)) return;
+    std::vector<char> keep;
+    PixelSolve best = SolveRows(r0, K, 1, o, true, &keep);
+    std::vector<uint8_t> use(obs.lights, 0);
+    for (size_t i = 0; i < r0.b.size(); ++i)
+      if (keep[i]) use[r0.light[i]] = 1;
+    auto score = [&](const Vec3& m) {
+      const Rows r = BuildRows(obs, basis, p, m, 1, &use, sh, o, Gates{false, false});
+      return SolveRows(r, K, 1, o, false).sse;
+    };
+    double best_sse = score(n);
+    double step = 4.0 * kPi / 180;
+    int evaluations = 0;
+    while (step > 0.25 * kPi / 180 && evaluations < 80) {
+      const Frame fr = Frame::FromNormal(n);
+      Vec3 best_n = n;
+      for (int k = 0; k < 8; ++k) {
+        const double a = 2 * kPi * k / 8;
+        const Vec3 m = (n + std::tan(step) * (std::cos(a) * fr.t + std::sin(a) * fr.b)).normalized();
+        if (m.z() > -0.02) continue;
+        const double e = score(m);
+        ++evaluations;
+        if (e < best_sse) best_sse = e, best_n = m;
+      }
+      if (best_n == n) step *= 0.5;
+      else n = best_n;
+    }
+    const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
+    for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(n[c]);
+    (void)best;
+    bar.Tick();
+  }, 64);
+  return out;
+}
+
+void SolveWeights(const PsObservations& obs, const std::vector<BasisMaterial>& basis, const Image& normals_cam,
+                  const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, std::vector<Image>* weights,
+                  Image* confidence) {
+  const int K = int(basis.size());
+  weights->assign(K, Image(obs.width, obs.height, 3));
+  *confidence = Image(obs.width, obs.height, 1);
+  ParallelFor(obs.P(), o.threads, [&](long p) {
+    const Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
+    const PixelSolve s = SolvePixel(obs, basis, p, n, 3, nullptr, ShadowRow(shadowed, p, obs.lights), o);
+    const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
+    for (int k = 0; k < K; ++k)
+      for (int c = 0; c < 3; ++c) (*weights)[k].at(x, y, c) = float(s.w(k, c));
+    confidence->at(x, y, 0) = float(s.used) / float(3 * obs.lights);
+  }, 64);
+}
+
+}  // namespace svbrdf

@@ -1,0 +1,89 @@
+// Per-pixel SVBRDF of a photometric capture as non-negative mixtures of a few
+// basis BRDFs chosen from a dictionary (Goldman et al. 2005; Alldrin et al.
+// 2008; Hui & Sankaranarayanan 2017 fit normals against such a dictionary):
+//
+//   f_p(wi, wo) = sum_k w_pk (per channel) f_k(wi, wo),   w_pk >= 0,
+//
+// with f_0 Lambert (rd = 1) and the others unit-scale specular lobes:
+// Cook-Torrance with a Beckmann distribution and the V-cavity term, or a GGX
+// distribution with Smith shadowing (lib/brdf/cook_torrance.h, rd = 0, rs = 1,
+// no Fresnel factor: its colour and angular trend go into the weights), and
+// Oren-Nayar (rd = 1) for rough diffuse surfaces. Which of them a capture
+// gets is chosen from its photos (SelectBasis): each addition must lower the
+// error on photos left out of the fit. A pixel's weights then carry its
+// diffuse colour, specular colour and (by mixing lobes) roughness.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "io/material.h"
+#include "photometric/observations.h"
+
+namespace svbrdf {
+
+// The dictionary the basis is chosen from: Lambert first.
+std::vector<BasisMaterial> DictionaryCandidates();
+
+// Options of the per-pixel stage.
+//   folds               light folds of the cross-validation in SelectBasis  [2, 10]
+//   selection_pixels    pixels (evenly spread) SelectBasis scores on        >= 50
+//   min_gain            relative cross-validated error drop an added basis
+//                       BRDF must bring                                     [0, 1)
+//   max_basis           most basis BRDFs, Lambert included                  [1, 8]
+//   outlier_sigmas      a photo whose weighted residual exceeds this many
+//                       robust standard deviations of its pixel is refitted
+//                       without (shadows the height field misses,
+//                       interreflection)                                    > 1 (0 = off)
+//   min_cos             photos lighting the pixel at a cosine below this
+//                       are left out (grazing light: mesh and normal errors
+//                       dominate)                                           [0, 0.5]
+struct DictionaryFitOptions {
+  int folds = 5;
+  int selection_pixels = 3000;
+  double min_gain = 0.01;
+  int max_basis = 5;
+  double outlier_sigmas = 3.0;
+  double min_cos = 0.05;
+  int threads = 0;
+  void Check() const;
+};
+
+struct PixelSolve {
+  Eigen::MatrixXd w;  // K x channels
+  double sse = 0;     // weighted squared residual over the photos used
+  int used = 0;       // photo x channel values used
+};
+
+// Non-negative weights of `basis` for one pixel with camera-frame normal n.
+// channels = 3 (RGB) or 1 (luminance). `use` (size lights) selects photos
+// (null = all); `shadowed` (size lights) excludes cast shadows (null: none).
+PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n,
+                      int channels, const std::vector<uint8_t>* use, const uint8_t* shadowed,
+                      const DictionaryFitOptions& o);
+
+struct BasisSelection {
+  std::vector<BasisMaterial> basis;
+  std::vector<double> cv_error;  // cross-validated error after each accepted step (first: Lambert alone)
+  std::vector<std::string> log;  // one line per round: the best candidate and its gain
+};
+
+// Forward selection from DictionaryCandidates() by cross-validated error over
+// light folds on luminance, starting from Lambert.
+BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, const std::vector<uint8_t>& shadowed,
+                           const DictionaryFitOptions& o);
+
+// Per-pixel normal search under the basis: pattern search on the pixel's
+// luminance fit (steps of 4 degrees halved down to 0.25), from `normals_cam`.
+// Returns the refined camera-frame normals.
+Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>& basis, const Image& normals_cam,
+                    const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o);
+
+// RGB weights of every pixel: one 3-channel map per basis BRDF (photo-sized,
+// zero outside the object), plus the share of usable photos per pixel.
+void SolveWeights(const PsObservations& obs, const std::vector<BasisMaterial>& basis, const Image& normals_cam,
+                  const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, std::vector<Image>* weights,
+                  Image* confidence);
+
+}  // namespace svbrdf

@@ -1,0 +1,60 @@
+// Per-pixel observations of a photometric capture: one fixed orthographic
+// view, one directional light per photo. Every object pixel is its own texel.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "camera/camera.h"
+#include "io/image.h"
+#include "io/mesh.h"
+#include "io/scene.h"
+
+namespace svbrdf {
+
+// True when every image of `scene` shares one ORTHOGRAPHIC camera and one
+// pose and every light is directional: the capture of a photometric-stereo
+// rig, reconstructed per pixel (lib/photometric) instead of per texel.
+bool IsPhotometricCapture(const Scene& scene);
+
+struct PsObservations {
+  Camera cam;
+  Rigid3 cam_from_world;
+  int width = 0, height = 0, lights = 0;
+  std::vector<int> pixel;       // y * width + x of each object pixel (P of them)
+  std::vector<Vec3> to_light;   // per light, camera frame (COLMAP: y down, z forward), unit
+  Vec3 to_viewer = Vec3(0, 0, -1);
+  // [p][l][c]: the photo divided by exposure x irradiance (the radiance under
+  // a unit light), and the square root of its fit weight: the sRGB encoding's
+  // slope at the photo's value times exposure x irradiance, so that weighted
+  // residuals are errors in the units held-out PSNR is measured in. Weight 0
+  // marks unusable values (outside the photo's mask, saturated).
+  std::vector<float> value, weight;
+  std::vector<double> depth;  // per pixel (P): camera-frame z of the capture mesh at the pixel centre
+  Image region;  // 1 channel: 1 on the object (the capture mesh seen by the pixel centre)
+  Image valid;   // 1 channel: 1 where some photo has a usable value
+
+  size_t At(long p, int l) const { return (size_t(p) * lights + l) * 3; }
+  int P() const { return int(pixel.size()); }
+};
+
+// Reads every photo and mask of `scene` (IsPhotometricCapture must hold);
+// `mesh` gives the object region (pixel centres whose ray hits it).
+PsObservations LoadObservations(const Scene& scene, const Mesh& mesh, int threads, bool progress);
+
+// Camera-frame normals per pixel from the capture mesh (the shading normal at
+// each region pixel's centre); 3 channels, zero outside the region.
+Image MeshNormalsCamera(const PsObservations& obs, const Mesh& mesh);
+
+// Cast shadows [p][l]: 1 where the pixel's surface point does not see light
+// l past `mesh` (the height field); attached shadows are left to the model.
+std::vector<uint8_t> CastShadows(const PsObservations& obs, const Mesh& mesh, int threads);
+
+// Lambertian least squares on each pixel's luminance (Woodham 1980) over its
+// inlier photos: values below the pixel's 25th percentile (shadows,
+// interreflection) and above its 90th (highlights) are left out, then photos
+// the first estimate puts in attached shadow. Camera-frame unit normals, 3
+// channels; pixels with fewer than 3 inliers face the camera.
+Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads);
+
+}  // namespace svbrdf

@@ -1,0 +1,229 @@
+#include "pipeline/photometric_stage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "core/error.h"
+#include "evaluate/metrics.h"
+#include "io/material.h"
+#include "photometric/dictionary_fit.h"
+#include "photometric/observations.h"
+#include "photometric/pixel_mesh.h"
+#include "photometric/ps_folder.h"
+
+namespace svbrdf {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+Vec3 PixelNormal(const Image& n, int x, int y) { return Vec3(n.at(x, y, 0), n.at(x, y, 1), n.at(x, y, 2)); }
+
+// Mean and median angle (degrees) between two camera-frame normal images over
+// the region pixels where `truth` is set.
+nlohmann::json AngularError(const Image& estimate, const Image& truth, const Image& region) {
+  std::vector<double> deg;
+  for (int y = 0; y < region.height; ++y)
+    for (int x = 0; x < region.width; ++x) {
+      const Vec3 t = PixelNormal(truth, x, y);
+      if (region.at(x, y, 0) < 0.5f || t.norm() < 0.5) continue;
+      const Vec3 e = PixelNormal(estimate, x, y).normalized();
+      deg.push_back(std::acos(std::clamp(e.dot(t.normalized()), -1.0, 1.0)) * 180 / kPi);
+    }
+  if (deg.empty()) return nullptr;
+  double sum = 0;
+  for (double d : deg) sum += d;
+  std::nth_element(deg.begin(), deg.begin() + deg.size() / 2, deg.end());
+  return {{"mean_deg", sum / deg.size()}, {"median_deg", deg[deg.size() / 2]}, {"pixels", deg.size()}};
+}
+
+// Per-pixel depth image (camera z) from the observations' mesh hits.
+std::vector<double> HitDepth(const PsObservations& obs) {
+  std::vector<double> d(size_t(obs.width) * obs.height, 0.0);
+  for (long p = 0; p < obs.P(); ++p) d[obs.pixel[p]] = obs.depth[p];
+  return d;
+}
+
+double MeanDepth(const PsObservations& obs) {
+  double s = 0;
+  for (double d : obs.depth) s += d;
+  return s / std::max<size_t>(1, obs.depth.size());
+}
+
+// Normals filled outside the pixels that had photos (nearest such pixel).
+Image FillNormals(const PsObservations& obs, Image normals) {
+  FillFromNearest(obs.valid, &normals);
+  return normals;
+}
+
+Image NormalsPicture(const Image& n_cam, const Image& region) {
+  Image rgb(n_cam.width, n_cam.height, 3);
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x)
+      if (region.at(x, y, 0) > 0.5f) {
+        const Vec3 n = FlipYZ(PixelNormal(n_cam, x, y));  // shown in the usual frame: y up, z towards the camera
+        for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = float(0.5 * (n[c] + 1));
+      }
+  return rgb;
+}
+
+}  // namespace
+
+nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const Scene& scene, StageTimer* timer) {
+  DictionaryFitOptions fo = job.photometric;
+  fo.threads = job.estimate.threads;
+  fo.Check();
+  if (job.photometric_normal_rounds < 1 || job.photometric_normal_rounds > 10)
+    throw Error(Msg("reconstruct: photometric normal rounds must be in [1, 10], got ", job.photometric_normal_rounds));
+  std::fprintf(stderr, "photometric capture: one fixed orthographic view, %zu directional lights: per-pixel fit\n",
+               scene.images.size());
+  timer->Start("read photos");
+  const Mesh capture_mesh = LoadMesh(scene.Resolve(scene.mesh));
+  capture_mesh.Validate(scene.Resolve(scene.mesh));
+  const PsObservations obs = LoadObservations(scene, capture_mesh, fo.threads, true);
+  std::fprintf(stderr, "  %d object pixels x %d photos\n", obs.P(), obs.lights);
+  nlohmann::json summary;
+  summary["pipeline"] = "photometric";
+  summary["pixels"] = obs.P();
+  summary["photos"] = obs.lights;
+
+  // Ground truth for the report only, never for the fit.
+  Image truth;
+  if (scene.ground_truth.is_object() && scene.ground_truth.contains("normals_camera"))
+    truth = ReadCameraNormals(scene.Resolve(scene.ground_truth["normals_camera"].get<std::string>()), obs.width,
+                              obs.height);
+
+  Image normals;
+  std::vector<uint8_t> shadowed;
+  std::vector<double> depth;
+  double base_depth = 0;
+  BasisSelection sel;
+  nlohmann::json normal_info;
+  if (scene.mesh_normals_known) {
+    timer->Start("shadows");
+    normals = FillNormals(obs, MeshNormalsCamera(obs, capture_mesh));
+    shadowed = CastShadows(obs, capture_mesh, fo.threads);
+    depth = HitDepth(obs);
+    normal_info["source"] = "capture mesh";
+  } else {
+    timer->Start("lambertian normals");
+    normals = FillNormals(obs, LambertianNormals(obs, {}, fo.threads));
+    if (truth.width) {
+      normal_info["lambertian_start"] = AngularError(normals, truth, obs.region);
+      std::fprintf(stderr, "  Lambertian start: normals %.2f deg from the truth\n",
+                   double(normal_info["lambertian_start"]["mean_deg"]));
+    }
+    base_depth = MeanDepth(obs);
+    for (int round = 0; round < job.photometric_normal_rounds; ++round) {
+      timer->Start("height field + shadows");
+      depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
+      const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, depth, base_depth, normals);
+      shadowed = CastShadows(obs, height_field, fo.threads);
+      timer->Start("basis selection");
+      sel = SelectBasis(obs, normals, shadowed, fo);
+      timer->Start("normal refinement");
+      normals = FillNormals(obs, RefineNormals(obs, sel.basis, normals, shadowed, fo));
+      if (truth.width) {
+        normal_info["rounds"].push_back(AngularError(normals, truth, obs.region));
+        std::fprintf(stderr, "  round %d: %zu basis BRDFs, normals %.2f deg from the truth\n", round + 1,
+                     sel.basis.size(), double(normal_info["rounds"].back()["mean_deg"]));
+      }
+    }
+    timer->Start("height field + shadows");
+    depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
+    const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, depth, base_depth, normals);
+    shadowed = CastShadows(obs, height_field, fo.threads);
+    normal_info["source"] = "estimated from the photos";
+  }
+  if (truth.width) normal_info["error"] = AngularError(normals, truth, obs.region);
+  if (truth.width) normal_info["mean_angular_error_deg"] = normal_info["error"]["mean_deg"];
+
+  timer->Start("basis selection");
+  sel = SelectBasis(obs, normals, shadowed, fo);
+  for (const std::string& line : sel.log) std::fprintf(stderr, "  %s\n", line.c_str());
+  timer->Start("weights");
+  Material material;
+  material.width = obs.width, material.height = obs.height;
+  material.basis = sel.basis;
+  Image confidence;
+  SolveWeights(obs, sel.basis, normals, shadowed, fo, &material.weights, &confidence);
+  for (Image& w : material.weights) FillFromNearest(obs.valid, &w);
+  material.confidence = confidence;
+  material.texture_filter = TextureFilter::kNearest;
+  const Rigid3 world_from_cam = obs.cam_from_world.Inverse();
+  material.normal_map = Image(obs.width, obs.height, 3);
+  material.material_id = Image(obs.width, obs.height, 1);
+  for (int y = 0; y < obs.height; ++y)
+    for (int x = 0; x < obs.width; ++x) {
+      const Vec3 n = world_from_cam.rotation * PixelNormal(normals, x, y).normalized();
+      for (int c = 0; c < 3; ++c) material.normal_map.at(x, y, c) = std::isfinite(n[c]) ? float(n[c]) : 0.0f;
+      int best = 0;
+      for (size_t k = 1; k < material.weights.size(); ++k)
+        if (material.weights[k].at(x, y, 1) > material.weights[best].at(x, y, 1)) best = int(k);
+      material.material_id.at(x, y, 0) = float(best);
+    }
+  material.mesh = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, depth, base_depth, normals);
+  material.extra = {{"pipeline", "photometric (per-pixel dictionary fit)"},
+                    {"normals", normal_info.value("source", "")},
+                    {"texel", "one per photo pixel"}};
+
+  timer->Start("write");
+  SaveMaterial(material, job.out_dir);
+  Image camera_normals(obs.width, obs.height, 3);
+  for (int y = 0; y < obs.height; ++y)
+    for (int x = 0; x < obs.width; ++x)
+      if (obs.region.at(x, y, 0) > 0.5f) {
+        const Vec3 n = FlipYZ(PixelNormal(normals, x, y).normalized());
+        for (int c = 0; c < 3; ++c) camera_normals.at(x, y, c) = float(n[c]);
+      }
+  WriteImage(job.out_dir + "/normals_camera.exr", camera_normals, PixelFormat::kFloat);
+
+  summary["clusters"] = int(sel.basis.size());
+  for (const auto& b : sel.basis) summary["basis"].push_back(BasisToJson(b));
+  summary["basis_selection"] = sel.log;
+  summary["cross_validated_error"] = sel.cv_error;
+  summary["normals"] = normal_info;
+  long shadowed_count = 0;
+  for (uint8_t s : shadowed) shadowed_count += s;
+  summary["cast_shadow_share"] = shadowed.empty() ? 0.0 : double(shadowed_count) / shadowed.size();
+  if (job.report) {
+    timer->Start("report");
+    const std::string dir = job.out_dir + "/report";
+    fs::create_directories(dir);
+    WriteImage(dir + "/normals.png", NormalsPicture(normals, obs.region), PixelFormat::kUInt8, ColorSpace::kLinear);
+    WriteImage(dir + "/diffuse.png", material.weights[0], PixelFormat::kUInt8, ColorSpace::kSRGB);
+    if (truth.width) {
+      Image err(obs.width, obs.height, 1);
+      for (int y = 0; y < obs.height; ++y)
+        for (int x = 0; x < obs.width; ++x) {
+          const Vec3 t = PixelNormal(truth, x, y);
+          if (obs.region.at(x, y, 0) < 0.5f || t.norm() < 0.5) continue;
+          const double a = std::acos(std::clamp(PixelNormal(normals, x, y).normalized().dot(t.normalized()), -1.0, 1.0));
+          err.at(x, y, 0) = float(std::min(1.0, a * 180 / kPi / 20));  // 0..20 degrees
+        }
+      WriteImage(dir + "/normals_error.png", err, PixelFormat::kUInt8, ColorSpace::kLinear);
+    }
+    const Material written = LoadMaterial(job.out_dir);
+    const std::string held = (fs::path(scene.dir) / "heldout" / "scene.json").string();
+    if (fs::exists(held)) {
+      const Scene hs = LoadScene(held);
+      summary["twin"] = WriteTwin(written, hs, 0, dir, "heldout");
+      summary["twin"]["kind"] = "held-out view";
+    } else {
+      summary["twin"] = WriteTwin(written, scene, 0, dir, "input");
+      summary["twin"]["kind"] = "input view (the capture has no held-out views)";
+    }
+  }
+  timer->Stop();
+  for (const auto& st : timer->stages()) summary["timings_s"][st.name] = st.seconds;
+  for (const auto& st : timer->stages()) summary["cpu_s"][st.name] = st.cpu_seconds;
+  summary["total_s"] = timer->Total();
+  summary["peak_memory_mb"] = PeakMemoryMB();
+  if (job.report) WriteFileAtomic(job.out_dir + "/report/summary.json", summary.dump(2) + "\n");
+  std::fprintf(stderr, "%s", timer->Report().c_str());
+  return summary;
+}
+
+}  // namespace svbrdf
