@@ -103,6 +103,15 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");
+  c->add_option("--ps-normal-rounds", job->photometric_normal_rounds,
+                "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search");
+  c->add_option("--ps-max-basis", job->photometric.max_basis, "photometric captures: most basis BRDFs (Lambert included)");
+  c->add_option("--ps-min-gain", job->photometric.min_gain,
+                "photometric captures: relative cross-validated error drop an added basis BRDF must bring");
+  c->add_option("--ps-prior-rows", job->photometric.prior_rows,
+                "photometric captures: pull of each pixel's weights towards the object's median, in photos' worth");
+  c->add_option("--ps-min-cos", job->photometric.min_cos,
+                "photometric captures: photos lighting a pixel at a cosine below this are left out of its fit");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {

@@ -8,6 +8,7 @@
 //    "confidence": "confidence.exr",              // optional, 1 channel
 //    "material_id": "material_id.png",            // optional, integer basis index per texel
 //    "texture_filter": "nearest",                 // optional, "bilinear" (absent) or "nearest"
+//    "light_transfer": ["transfer/t0.exr", ...],  // optional, 4, 9 or 16 RGB maps: light transfer beyond the BRDF (material.h)
 //    "info": {...}}                               // optional, free-form provenance
 #include "io/material.h"
 
@@ -115,7 +116,7 @@ Material LoadMaterial(const std::string& dir) {
   const json j = ReadJsonFile(file);
   const JsonField root(j, file);
   root.AllowOnly({"format", "mesh", "resolution", "basis", "weights", "normal_map", "normal_map_space", "confidence",
-                  "material_id", "texture_filter", "info"});
+                  "material_id", "texture_filter", "light_transfer", "info"});
   const std::string format = root.Get<std::string>("format");
   if (format != kMaterialFormat) root.FailAt("format", Msg("expected \"", kMaterialFormat, "\", got \"", format, "\""));
 
@@ -172,6 +173,21 @@ Material LoadMaterial(const std::string& dir) {
     throw Error(Msg(file, ": ", e.what()));
   }
   LoadOptionalMap(root, dir, "material_id", 1, m.width, m.height, true, &m.material_id);
+  if (root.Has("light_transfer")) {
+    const std::vector<JsonField> files = root.Items("light_transfer");
+    if (!ValidLightTransferTerms(int(files.size())))
+      root.FailAt("light_transfer", Msg("expected 4, 9 or 16 maps, got ", files.size()));
+    for (const JsonField& file : files) {
+      const std::string path = (fs::path(dir) / file.As<std::string>()).string();
+      try {
+        m.light_transfer.push_back(ReadImage(path));
+        CheckMap(m.light_transfer.back(), m.width, m.height, 3, path);
+        CheckValues(m.light_transfer.back(), -1e4f, 1e4f, path);
+      } catch (const Error& e) {
+        root.FailAt("light_transfer", e.what());
+      }
+    }
+  }
   if (root.Has("texture_filter")) {
     const std::string filter = root.Get<std::string>("texture_filter");
     if (filter == "nearest") m.texture_filter = TextureFilter::kNearest;
@@ -193,6 +209,9 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
   if (m.normal_map.width) CheckMap(m.normal_map, m.width, m.height, 3, where + ": normal_map");
   if (m.confidence.width) CheckMap(m.confidence, m.width, m.height, 1, where + ": confidence");
   if (m.material_id.width) CheckMap(m.material_id, m.width, m.height, 1, where + ": material_id");
+  if (!m.light_transfer.empty() && !ValidLightTransferTerms(int(m.light_transfer.size())))
+    throw Error(Msg(where, ": light_transfer has ", m.light_transfer.size(), " maps, expected 4, 9 or 16"));
+  for (const Image& t : m.light_transfer) CheckMap(t, m.width, m.height, 3, where + ": light_transfer");
 
   OutputFolder out(dir.string());
   const fs::path tmp = out.path();
@@ -228,6 +247,15 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
       j["material_id"] = "material_id.png";
     }
     if (m.texture_filter == TextureFilter::kNearest) j["texture_filter"] = "nearest";
+    if (!m.light_transfer.empty()) {
+      fs::create_directories(tmp / "transfer");
+      j["light_transfer"] = json::array();
+      for (size_t k = 0; k < m.light_transfer.size(); ++k) {
+        const std::string rel = Msg("transfer/t", k, ".exr");
+        WriteImage((tmp / rel).string(), m.light_transfer[k], PixelFormat::kFloat);
+        j["light_transfer"].push_back(rel);
+      }
+    }
     if (!m.extra.is_null()) j["info"] = m.extra;
     WriteFileAtomic((tmp / "material.json").string(), j.dump(2) + "\n");
   } catch (const fs::filesystem_error& e) {

@@ -27,6 +27,21 @@ struct BasisMaterial {
 // not blend it with its neighbours'.
 enum class TextureFilter { kBilinear, kNearest };
 
+// Light transfer beyond the BRDF (lib/photometric/transfer.h): per texel,
+// radiance E * sum_k c_k phi_k(d) for a distant light of irradiance E in
+// world direction d = (x, y, z), with the first 4, 9 or 16 of
+// phi = [1, x, y, z, x^2, y^2, xy, xz, yz, x^3, y^3, x^2 y, x y^2, x^2 z, y^2 z, xyz]
+// (a polynomial of degree 1, 2 or 3; z^2 = 1 - x^2 - y^2 adds nothing).
+constexpr int kLightTransferMaxTerms = 16;
+inline bool ValidLightTransferTerms(int n) { return n == 4 || n == 9 || n == 16; }
+inline void LightTransferTerms(const Vec3& d, double* phi) {
+  const double x = d.x(), y = d.y(), z = d.z();
+  const double v[kLightTransferMaxTerms] = {1,         x,         y,         z,         x * x,     y * y,
+                                            x * y,     x * z,     y * z,     x * x * x, y * y * y, x * x * y,
+                                            x * y * y, x * x * z, y * y * z, x * y * z};
+  for (int k = 0; k < kLightTransferMaxTerms; ++k) phi[k] = v[k];
+}
+
 struct Material {
   std::string dir;               // folder of material.json
   Mesh mesh;
@@ -39,6 +54,7 @@ struct Material {
   Image confidence;              // 1 channel in [0,1]; empty when absent
   Image material_id;             // 1 channel, integer ids (basis index); empty when absent
   TextureFilter texture_filter = TextureFilter::kBilinear;  // material.json "texture_filter" (absent = bilinear)
+  std::vector<Image> light_transfer;  // 4, 9 or 16 RGB maps (LightTransferTerms), or none (material.json "light_transfer")
   nlohmann::json extra;          // free-form provenance (written as "info")
 };
 

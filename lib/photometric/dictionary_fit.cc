@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "brdf/cook_torrance.h"
 #include "brdf/model.h"
+#include "brdf/oren_nayar.h"
 #include "cluster/nnls.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -35,14 +37,86 @@ void SetRgb(BasisMaterial* b, const std::string& prefix, double v) {
   for (const char* c : {"_r", "_g", "_b"}) SetParam(b, prefix + c, v);
 }
 
+// The basis BRDFs here are grey (one value for every channel): evaluated
+// directly from the model headers, without the per-call parameter unpacking
+// of EvalModelD, since the normal search evaluates them millions of times.
+class GreyBasis {
+ public:
+  explicit GreyBasis(const std::vector<BasisMaterial>& basis) : basis_(basis) {
+    for (const BasisMaterial& b : basis) {
+      Lobe l;
+      l.family = b.spec.family;
+      const std::vector<ParamInfo> info = b.spec.Params();
+      auto param = [&](const std::string& name) {
+        for (size_t i = 0; i < info.size(); ++i)
+          if (info[i].name == name) return b.params[i];
+        return 0.0;
+      };
+      if (l.family == Family::kOrenNayar) {
+        l.on.rd = brdf::RgbT<double>::Constant(param("rd_r"));
+        l.on.sigma = param("sigma");
+      } else if (l.family == Family::kCookTorrance) {
+        l.ct.rd = brdf::RgbT<double>::Constant(param("rd_r"));
+        l.ct.rs = brdf::RgbT<double>::Constant(param("rs_r"));
+        l.ct.m = param("roughness");
+        l.ct.n = param("ior");
+        l.ct.distribution = b.spec.distribution;
+        l.ct.shadowing = b.spec.shadowing;
+        l.ct.fresnel = b.spec.fresnel;
+      } else if (l.family == Family::kLambert) {
+        l.rd = param("rd_r");
+      }
+      lobes_.push_back(l);
+    }
+  }
+  int size() const { return int(lobes_.size()); }
+  // Writes f_k(wi, wo) * cos(wi) into a (local frame, both above the horizon).
+  void Eval(const Vec3& wi, const Vec3& wo, double* a) const {
+    for (size_t k = 0; k < lobes_.size(); ++k) {
+      const Lobe& l = lobes_[k];
+      double f;
+      switch (l.family) {
+        case Family::kLambert: f = l.rd / kPi; break;
+        case Family::kOrenNayar: f = l.on.f(wi, wo)[0]; break;
+        case Family::kCookTorrance: f = l.ct.f(wi, wo)[0]; break;
+        default: f = EvalModelD(basis_[k].spec, basis_[k].params.data(), wi, wo)[0]; break;
+      }
+      a[k] = f * wi.z();
+    }
+  }
+
+ private:
+  struct Lobe {
+    Family family = Family::kLambert;
+    double rd = 1;
+    brdf::OrenNayar<double> on;
+    brdf::CookTorrance<double> ct;
+  };
+  const std::vector<BasisMaterial>& basis_;
+  std::vector<Lobe> lobes_;
+};
+
 double Luminance(const float* v) { return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]; }
 
-// The rows of one pixel's least-squares problem.
+// The rows of one pixel's least-squares problem, flat (row i's K basis
+// values at a[i * K]): the normal search builds millions of them.
 struct Rows {
-  std::vector<Eigen::VectorXd> a;  // weighted basis values (K)
-  std::vector<double> b;           // weighted observation
+  int K = 0;
+  std::vector<double> a;  // weighted basis values
+  std::vector<double> b;  // weighted observation
   std::vector<int> light, channel;
+  const double* Row(size_t i) const { return &a[i * K]; }
+  void Add(const double* row, double scale, double value, int l, int c) {
+    for (int k = 0; k < K; ++k) a.push_back(row[k] * scale);
+    b.push_back(value), light.push_back(l), channel.push_back(c);
+  }
 };
+
+double Dot(const double* a, const Eigen::MatrixXd& w, int c, int K) {
+  double s = 0;
+  for (int k = 0; k < K; ++k) s += a[k] * w(k, c);
+  return s;
+}
 
 // Which photos a solve uses beyond `use` and the shadow flags.
 struct Gates {
@@ -50,31 +124,31 @@ struct Gates {
   bool robust = true;   // refit without outliers
 };
 
-Rows BuildRows(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n, int channels,
+Rows BuildRows(const PsObservations& obs, const GreyBasis& basis, long p, const Vec3& n, int channels,
                const std::vector<uint8_t>* use, const uint8_t* shadowed, const DictionaryFitOptions& o, const Gates& g) {
   Rows r;
+  r.K = basis.size();
   const Frame fr = Frame::FromNormal(n);
   const Vec3 wo = fr.ToLocal(obs.to_viewer);
-  const int K = int(basis.size());
+  const int K = basis.size();
   for (int l = 0; l < obs.lights; ++l) {
     if (use && !(*use)[l]) continue;
     if (shadowed && shadowed[l]) continue;
     const size_t i = obs.At(p, l);
     const Vec3 wi = fr.ToLocal(obs.to_light[l]);
     if (g.min_cos && wi.z() < o.min_cos) continue;
-    Eigen::VectorXd a = Eigen::VectorXd::Zero(K);
-    if (wi.z() > 0 && wo.z() > 0)
-      for (int k = 0; k < K; ++k) a[k] = EvalModelD(basis[k].spec, basis[k].params.data(), wi, wo)[0] * wi.z();
+    double a[16] = {0};
+    if (wi.z() > 0 && wo.z() > 0) basis.Eval(wi, wo, a);
     if (channels == 1) {
       if (obs.weight[i] <= 0 || obs.weight[i + 1] <= 0 || obs.weight[i + 2] <= 0) continue;
       const double sw = std::sqrt((double(obs.weight[i]) * obs.weight[i] + double(obs.weight[i + 1]) * obs.weight[i + 1] +
                                    double(obs.weight[i + 2]) * obs.weight[i + 2]) / 3);
-      r.a.push_back(a * sw), r.b.push_back(Luminance(&obs.value[i]) * sw), r.light.push_back(l), r.channel.push_back(0);
+      r.Add(a, sw, Luminance(&obs.value[i]) * sw, l, 0);
     } else {
       for (int c = 0; c < 3; ++c) {
         const double sw = obs.weight[i + c];
         if (sw <= 0) continue;
-        r.a.push_back(a * sw), r.b.push_back(obs.value[i + c] * sw), r.light.push_back(l), r.channel.push_back(c);
+        r.Add(a, sw, obs.value[i + c] * sw, l, c);
       }
     }
   }
@@ -82,7 +156,8 @@ Rows BuildRows(const PsObservations& obs, const std::vector<BasisMaterial>& basi
 }
 
 // NNLS per channel over the rows with keep[i]; residuals into `res`.
-PixelSolve Solve(const Rows& r, int K, int channels, const std::vector<char>& keep, std::vector<double>* res) {
+PixelSolve Solve(const Rows& r, int K, int channels, const std::vector<char>& keep, std::vector<double>* res,
+                 const Eigen::MatrixXd* prior, double prior_rows) {
   PixelSolve s;
   s.w = Eigen::MatrixXd::Zero(K, channels);
   for (int c = 0; c < channels; ++c) {
@@ -91,29 +166,39 @@ PixelSolve Solve(const Rows& r, int K, int channels, const std::vector<char>& ke
     int rows = 0;
     for (size_t i = 0; i < r.b.size(); ++i)
       if (keep[i] && r.channel[i] == c) {
-        AtA.noalias() += r.a[i] * r.a[i].transpose();
-        Atb += r.b[i] * r.a[i];
+        const double* a = r.Row(i);
+        for (int j = 0; j < K; ++j) {
+          Atb[j] += r.b[i] * a[j];
+          for (int k = 0; k <= j; ++k) AtA(j, k) += a[j] * a[k];
+        }
         ++rows;
       }
     if (rows == 0) continue;
     // A weak ridge: neighbouring lobes are nearly collinear over one pixel's
     // photos, and without it they may trade huge opposite weights.
     AtA.diagonal().array() += 1e-4 * AtA.diagonal().mean() + 1e-30;
+    if (prior && prior_rows > 0) {
+      // Pull towards the object's typical weights, as strong as `prior_rows`
+      // average photos: decides what the pixel's own photos leave open.
+      const double lambda = prior_rows * AtA.trace() / (K * rows);
+      AtA.diagonal().array() += lambda;
+      Atb += lambda * prior->col(c);
+    }
     s.w.col(c) = NnlsNormal(AtA, Atb);
   }
   res->assign(r.b.size(), 0.0);
   for (size_t i = 0; i < r.b.size(); ++i) {
-    (*res)[i] = r.b[i] - r.a[i].dot(s.w.col(r.channel[i]));
+    (*res)[i] = r.b[i] - Dot(r.Row(i), s.w, r.channel[i], K);
     if (keep[i]) s.sse += (*res)[i] * (*res)[i], s.used += 1;
   }
   return s;
 }
 
 PixelSolve SolveRows(const Rows& r, int K, int channels, const DictionaryFitOptions& o, bool robust,
-                     std::vector<char>* keep_out = nullptr) {
+                     std::vector<char>* keep_out = nullptr, const Eigen::MatrixXd* prior = nullptr) {
   std::vector<char> keep(r.b.size(), 1);
   std::vector<double> res;
-  PixelSolve s = Solve(r, K, channels, keep, &res);
+  PixelSolve s = Solve(r, K, channels, keep, &res, prior, o.prior_rows);
   if (robust && o.outlier_sigmas > 0 && r.b.size() > size_t(4 * K)) {
     std::vector<double> mag(res.size());
     for (size_t i = 0; i < res.size(); ++i) mag[i] = std::abs(res[i]);
@@ -122,7 +207,7 @@ PixelSolve SolveRows(const Rows& r, int K, int channels, const DictionaryFitOpti
     bool any = false;
     for (size_t i = 0; i < res.size(); ++i)
       if (std::abs(res[i]) > o.outlier_sigmas * scale && scale > 0) keep[i] = 0, any = true;
-    if (any) s = Solve(r, K, channels, keep, &res);
+    if (any) s = Solve(r, K, channels, keep, &res, prior, o.prior_rows);
   }
   if (keep_out) *keep_out = keep;
   return s;
@@ -172,39 +257,55 @@ void DictionaryFitOptions::Check() const {
   if (max_basis < 1 || max_basis > 8) throw Error(Msg("photometric: max_basis must be in [1, 8], got ", max_basis));
   if (outlier_sigmas != 0 && !(outlier_sigmas > 1))
     throw Error(Msg("photometric: outlier_sigmas must be > 1 or 0, got ", outlier_sigmas));
+  if (!(prior_rows >= 0) || !std::isfinite(prior_rows))
+    throw Error(Msg("photometric: prior_rows must be a finite number >= 0, got ", prior_rows));
   if (!(min_cos >= 0 && min_cos <= 0.5)) throw Error(Msg("photometric: min_cos must be in [0, 0.5], got ", min_cos));
 }
 
 PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n,
                       int channels, const std::vector<uint8_t>* use, const uint8_t* shadowed,
-                      const DictionaryFitOptions& o) {
-  const Rows r = BuildRows(obs, basis, p, n, channels, use, shadowed, o, Gates{});
-  return SolveRows(r, int(basis.size()), channels, o, true);
+                      const DictionaryFitOptions& o, const Eigen::MatrixXd* prior) {
+  const Rows r = BuildRows(obs, GreyBasis(basis), p, n, channels, use, shadowed, o, Gates{});
+  return SolveRows(r, int(basis.size()), channels, o, true, nullptr, prior);
 }
 
 BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, const std::vector<uint8_t>& shadowed,
                            const DictionaryFitOptions& o) {
   o.Check();
   const std::vector<BasisMaterial> dict = DictionaryCandidates();
+  const GreyBasis grey(dict);
   const long P = obs.P();
   const long stride = std::max<long>(1, P / o.selection_pixels);
   std::vector<long> subset;
   for (long p = stride / 2; p < P; p += stride) subset.push_back(p);
-  // Cross-validated luminance error of a basis: each fold's photos predicted
-  // from the others.
-  auto cv_error = [&](const std::vector<BasisMaterial>& basis) {
+  // Each subset pixel's luminance rows for the whole dictionary, once: a
+  // candidate basis is a choice of columns.
+  std::vector<Rows> rows(subset.size());
+  ParallelFor(long(subset.size()), o.threads, [&](long s) {
+    const long p = subset[s];
+    rows[s] = BuildRows(obs, grey, p, NormalAt(normals_cam, obs.pixel[p], obs.width), 1, nullptr,
+                        ShadowRow(shadowed, p, obs.lights), o, Gates{});
+  }, 16);
+  // Cross-validated luminance error of a basis (columns `cols`): each fold's
+  // photos predicted from the others' fit.
+  auto cv_error = [&](const std::vector<int>& cols) {
+    const int K = int(cols.size());
     std::vector<double> err(subset.size(), 0.0);
     ParallelFor(long(subset.size()), o.threads, [&](long s) {
-      const long p = subset[s];
-      const Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
-      const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
+      const Rows& full = rows[s];
       for (int f = 0; f < o.folds; ++f) {
-        std::vector<uint8_t> train(obs.lights), test(obs.lights);
-        for (int l = 0; l < obs.lights; ++l) train[l] = l % o.folds != f, test[l] = !train[l];
-        const PixelSolve fit = SolvePixel(obs, basis, p, n, 1, &train, sh, o);
-        const Rows r = BuildRows(obs, basis, p, n, 1, &test, sh, o, Gates{true, false});
-        for (size_t i = 0; i < r.b.size(); ++i) {
-          const double e = r.b[i] - r.a[i].dot(fit.w.col(0));
+        Rows train, test;
+        train.K = test.K = K;
+        for (size_t i = 0; i < full.b.size(); ++i) {
+          Rows& dst = full.light[i] % o.folds == f ? test : train;
+          double a[16];
+          for (int k = 0; k < K; ++k) a[k] = full.Row(i)[cols[k]];
+          dst.Add(a, 1.0, full.b[i], full.light[i], 0);
+        }
+        if (train.b.empty()) continue;
+        const PixelSolve fit = SolveRows(train, K, 1, o, true);
+        for (size_t i = 0; i < test.b.size(); ++i) {
+          const double e = test.b[i] - Dot(test.Row(i), fit.w, 0, K);
           err[s] += e * e;
         }
       }
@@ -214,18 +315,18 @@ BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, 
     return sum;
   };
   BasisSelection sel;
-  sel.basis = {dict[0]};
-  sel.cv_error.push_back(cv_error(sel.basis));
-  sel.log.push_back(Msg("diffuse: cross-validated error ", sel.cv_error.back()));
+  std::vector<int> cols = {0};
+  sel.cv_error.push_back(cv_error(cols));
+  sel.log.push_back(Msg(dict[0].name, ": cross-validated error ", sel.cv_error.back()));
   std::vector<char> taken(dict.size(), 0);
   taken[0] = 1;
-  while (int(sel.basis.size()) < o.max_basis) {
+  while (int(cols.size()) < o.max_basis) {
     int best = -1;
     double best_err = 0;
     for (size_t c = 1; c < dict.size(); ++c) {
       if (taken[c]) continue;
-      std::vector<BasisMaterial> trial = sel.basis;
-      trial.push_back(dict[c]);
+      std::vector<int> trial = cols;
+      trial.push_back(int(c));
       const double e = cv_error(trial);
       if (best < 0 || e < best_err) best = int(c), best_err = e;
     }
@@ -236,9 +337,10 @@ BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, 
                           accept ? "kept" : "rejected"));
     if (!accept) break;
     taken[best] = 1;
-    sel.basis.push_back(dict[best]);
+    cols.push_back(best);
     sel.cv_error.push_back(best_err);
   }
+  for (int c : cols) sel.basis.push_back(dict[c]);
   return sel;
 }
 
@@ -246,13 +348,14 @@ Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>&
                     const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o) {
   Image out = normals_cam;
   const int K = int(basis.size());
+  const GreyBasis grey(basis);
   Progress bar("refine normals", obs.P(), true);
   ParallelFor(obs.P(), o.threads, [&](long p) {
     Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
     const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
     // The photos (and rows) the search scores on are fixed at the start, so
     // that every candidate normal is judged on the same data.
-    const Rows r0 = BuildRows(obs, basis, p, n, 1, nullptr, sh, o, Gates{});
+    const Rows r0 = BuildRows(obs, grey, p, n, 1, nullptr, sh, o, Gates{});
     if (r0.b.size() < size_t(K + 3)) return;
     std::vector<char> keep;
     PixelSolve best = SolveRows(r0, K, 1, o, true, &keep);
@@ -260,7 +363,7 @@ Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>&
     for (size_t i = 0; i < r0.b.size(); ++i)
       if (keep[i]) use[r0.light[i]] = 1;
     auto score = [&](const Vec3& m) {
-      const Rows r = BuildRows(obs, basis, p, m, 1, &use, sh, o, Gates{false, false});
+      const Rows r = BuildRows(obs, grey, p, m, 1, &use, sh, o, Gates{false, false});
       return SolveRows(r, K, 1, o, false).sse;
     };
     double best_sse = score(n);
@@ -292,16 +395,35 @@ void SolveWeights(const PsObservations& obs, const std::vector<BasisMaterial>& b
                   const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, std::vector<Image>* weights,
                   Image* confidence) {
   const int K = int(basis.size());
+  std::vector<PixelSolve> fits(obs.P());
+  auto solve_all = [&](const Eigen::MatrixXd* prior) {
+    ParallelFor(obs.P(), o.threads, [&](long p) {
+      const Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
+      fits[p] = SolvePixel(obs, basis, p, n, 3, nullptr, ShadowRow(shadowed, p, obs.lights), o, prior);
+    }, 64);
+  };
+  solve_all(nullptr);
+  // The prior: per basis BRDF and channel, the median weight of the pixels
+  // that most photos saw.
+  Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(K, 3);
+  for (int k = 0; k < K; ++k)
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> v;
+      for (long p = 0; p < obs.P(); ++p)
+        if (fits[p].used > obs.lights) v.push_back(fits[p].w(k, c));
+      if (v.empty()) continue;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      prior(k, c) = v[v.size() / 2];
+    }
+  if (o.prior_rows > 0) solve_all(&prior);
   weights->assign(K, Image(obs.width, obs.height, 3));
   *confidence = Image(obs.width, obs.height, 1);
-  ParallelFor(obs.P(), o.threads, [&](long p) {
-    const Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
-    const PixelSolve s = SolvePixel(obs, basis, p, n, 3, nullptr, ShadowRow(shadowed, p, obs.lights), o);
+  for (long p = 0; p < obs.P(); ++p) {
     const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
     for (int k = 0; k < K; ++k)
-      for (int c = 0; c < 3; ++c) (*weights)[k].at(x, y, c) = float(s.w(k, c));
-    confidence->at(x, y, 0) = float(s.used) / float(3 * obs.lights);
-  }, 64);
+      for (int c = 0; c < 3; ++c) (*weights)[k].at(x, y, c) = float(fits[p].w(k, c));
+    confidence->at(x, y, 0) = float(fits[p].used) / float(3 * obs.lights);
+  }
 }
 
 }  // namespace svbrdf

@@ -36,6 +36,10 @@ std::vector<BasisMaterial> DictionaryCandidates();
 //                       robust standard deviations of its pixel is refitted
 //                       without (shadows the height field misses,
 //                       interreflection)                                    > 1 (0 = off)
+//   prior_rows          final weights are pulled towards the object's median
+//                       weights as strongly as this many average photos
+//                       (pixels whose photos leave a lobe undetermined, e.g.
+//                       mostly in shadow, take the typical one)            >= 0
 //   min_cos             photos lighting the pixel at a cosine below this
 //                       are left out (grazing light: mesh and normal errors
 //                       dominate)                                           [0, 0.5]
@@ -46,6 +50,8 @@ struct DictionaryFitOptions {
   int max_basis = 5;
   double outlier_sigmas = 3.0;
   double min_cos = 0.05;
+  double prior_rows = 0.0;
+  double srgb_weight_exponent = 0.5;  // see PsObservations::weight
   int threads = 0;
   void Check() const;
 };
@@ -61,7 +67,7 @@ struct PixelSolve {
 // (null = all); `shadowed` (size lights) excludes cast shadows (null: none).
 PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n,
                       int channels, const std::vector<uint8_t>* use, const uint8_t* shadowed,
-                      const DictionaryFitOptions& o);
+                      const DictionaryFitOptions& o, const Eigen::MatrixXd* prior = nullptr);
 
 struct BasisSelection {
   std::vector<BasisMaterial> basis;

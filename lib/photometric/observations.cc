@@ -38,7 +38,8 @@ bool IsPhotometricCapture(const Scene& scene) {
   return true;
 }
 
-PsObservations LoadObservations(const Scene& scene, const Mesh& mesh, int threads, bool progress) {
+PsObservations LoadObservations(const Scene& scene, const Mesh& mesh, double srgb_weight_exponent, int threads,
+                                bool progress) {
   if (!IsPhotometricCapture(scene))
     throw Error("photometric: the capture is not one fixed ORTHOGRAPHIC view under directional lights");
   PsObservations o;
@@ -96,7 +97,7 @@ PsObservations LoadObservations(const Scene& scene, const Mesh& mesh, int thread
         if (!(irradiance[c] > 0)) continue;
         const double v = img.at(x, y, std::min(c, img.channels - 1));
         o.value[o.At(p, int(l)) + c] = float(v / irradiance[c]);
-        o.weight[o.At(p, int(l)) + c] = float(SrgbSlopeFloored(v) * irradiance[c]);
+        o.weight[o.At(p, int(l)) + c] = float(std::pow(SrgbSlopeFloored(v), srgb_weight_exponent) * irradiance[c]);
       }
     }
     bar.Tick();

@@ -25,10 +25,12 @@ struct PsObservations {
   std::vector<Vec3> to_light;   // per light, camera frame (COLMAP: y down, z forward), unit
   Vec3 to_viewer = Vec3(0, 0, -1);
   // [p][l][c]: the photo divided by exposure x irradiance (the radiance under
-  // a unit light), and the square root of its fit weight: the sRGB encoding's
-  // slope at the photo's value times exposure x irradiance, so that weighted
-  // residuals are errors in the units held-out PSNR is measured in. Weight 0
-  // marks unusable values (outside the photo's mask, saturated).
+  // a unit light), and the square root of its fit weight: exposure x
+  // irradiance (so residuals are in the photo's units) times the sRGB
+  // encoding's slope at the photo's value to the power `srgb_weight_exponent`
+  // (1: errors in the units held-out PSNR is measured in, which lets dark,
+  // 8-bit-quantised values dominate; 0: linear; 0.5 between). Weight 0 marks
+  // unusable values (outside the photo's mask, saturated).
   std::vector<float> value, weight;
   std::vector<double> depth;  // per pixel (P): camera-frame z of the capture mesh at the pixel centre
   Image region;  // 1 channel: 1 on the object (the capture mesh seen by the pixel centre)
@@ -40,7 +42,8 @@ struct PsObservations {
 
 // Reads every photo and mask of `scene` (IsPhotometricCapture must hold);
 // `mesh` gives the object region (pixel centres whose ray hits it).
-PsObservations LoadObservations(const Scene& scene, const Mesh& mesh, int threads, bool progress);
+PsObservations LoadObservations(const Scene& scene, const Mesh& mesh, double srgb_weight_exponent, int threads,
+                                bool progress);
 
 // Camera-frame normals per pixel from the capture mesh (the shading normal at
 // each region pixel's centre); 3 channels, zero outside the region.

@@ -12,6 +12,7 @@
 #include "photometric/observations.h"
 #include "photometric/pixel_mesh.h"
 #include "photometric/ps_folder.h"
+#include "photometric/transfer.h"
 
 namespace svbrdf {
 
@@ -82,7 +83,7 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
   timer->Start("read photos");
   const Mesh capture_mesh = LoadMesh(scene.Resolve(scene.mesh));
   capture_mesh.Validate(scene.Resolve(scene.mesh));
-  const PsObservations obs = LoadObservations(scene, capture_mesh, fo.threads, true);
+  const PsObservations obs = LoadObservations(scene, capture_mesh, fo.srgb_weight_exponent, fo.threads, true);
   std::fprintf(stderr, "  %d object pixels x %d photos\n", obs.P(), obs.lights);
   nlohmann::json summary;
   summary["pipeline"] = "photometric";
@@ -151,6 +152,19 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
   SolveWeights(obs, sel.basis, normals, shadowed, fo, &material.weights, &confidence);
   for (Image& w : material.weights) FillFromNearest(obs.valid, &w);
   material.confidence = confidence;
+  timer->Start("light transfer");
+  const TransferFit transfer = FitTransfer(obs, sel.basis, material.weights, normals, shadowed, fo);
+  std::fprintf(stderr, "  light transfer beyond the BRDF: cross-validated error %.4g -> %.4g: %s\n",
+               transfer.cv_error_without, transfer.cv_error_with,
+               transfer.kept ? Msg("kept, ", transfer.terms, " terms").c_str() : "not kept");
+  summary["light_transfer"] = {{"cv_error_without", transfer.cv_error_without},
+                               {"cv_error_with", transfer.cv_error_with},
+                               {"terms", transfer.terms},
+                               {"kept", transfer.kept}};
+  for (const auto& [terms, e] : transfer.cv_error_by_terms)
+    summary["light_transfer"]["cv_error_by_terms"].push_back({{"terms", terms}, {"error", e}});
+  material.light_transfer = transfer.maps;
+  for (Image& t : material.light_transfer) FillFromNearest(obs.valid, &t);
   material.texture_filter = TextureFilter::kNearest;
   const Rigid3 world_from_cam = obs.cam_from_world.Inverse();
   material.normal_map = Image(obs.width, obs.height, 3);

@@ -115,6 +115,12 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
     const Vec3 wo = -dir.normalized();  // towards the viewer (the eye, or -z of an orthographic camera)
     Rgb radiance = direct(v, wo);
     if (options.bounces > 0) radiance += indirect(v, wo, rng);
+    if (shader.HasTransfer()) {
+      // Measured transfer beyond the BRDF (interreflection, light in the
+      // shadows): it needs no shadow ray, and the sum stays non-negative.
+      const LightSample ls = SampleLight(light, v.x, world_from_cam.rotation, eye);
+      radiance = (radiance + shader.Transfer(v.uv, ls.wi) * ls.normal_irradiance).max(0.0);
+    }
     return radiance;
   };
 

@@ -40,6 +40,15 @@ Vec3 MaterialShader::Normal(const Vec2& uv, const Vec3& smooth_normal, const Vec
   return NormalFromMapValue(Vec3(n[0], n[1], n[2]), material_.normal_map_space, smooth_normal, dpdu);
 }
 
+Rgb MaterialShader::Transfer(const Vec2& uv, const Vec3& to_light) const {
+  if (!HasTransfer()) return Rgb::Zero();
+  double phi[kLightTransferMaxTerms];
+  LightTransferTerms(to_light, phi);
+  Rgb t = Rgb::Zero();
+  for (size_t k = 0; k < material_.light_transfer.size(); ++k) t += phi[k] * SampleMap(material_.light_transfer[k], uv, material_.texture_filter);
+  return t;
+}
+
 Rgb MaterialShader::Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const {
   const Vec3 wi = frame.ToLocal(wi_world), wo = frame.ToLocal(wo_world);
   if (wi.z() <= 0 || wo.z() <= 0) return Rgb::Zero();

@@ -1,0 +1,43 @@
+// Light transfer beyond the BRDF: what the photos hold that a direct
+// reflection off the surface does not explain (interreflection from the
+// object's other parts, light through the cast shadows, subsurface and
+// stray light, the BRDF fit's own error). For distant lights seen from the
+// capture's view it is, per texel, a smooth function of the direction
+// towards the light (precomputed radiance transfer, Sloan et al. 2002); it
+// is stored as a polynomial of that direction d (world frame):
+//
+//   L_transfer = E * sum_k c_k phi_k(d)   (io/material.h LightTransferTerms)
+//
+// with E the light's irradiance on a surface facing it and c_k an RGB map
+// each (material.json "light_transfer"). It is fitted per pixel to the
+// residuals of the direct prediction; its degree (none, 1, 2 or 3) is the
+// one with the lowest error on photos left out of the fit (light folds),
+// a higher degree kept only when it lowers that error by min_gain.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "io/image.h"
+#include "io/material.h"
+#include "photometric/dictionary_fit.h"
+#include "photometric/observations.h"
+
+namespace svbrdf {
+
+struct TransferFit {
+  std::vector<Image> maps;      // 4, 9 or 16 RGB maps (photo-sized), empty when not kept
+  int terms = 0;                // maps.size()
+  std::vector<std::pair<int, double>> cv_error_by_terms;  // (terms, cross-validated error), 0 = none
+  double cv_error_without = 0;  // cross-validated error of the direct prediction alone
+  double cv_error_with = 0;     // with the transfer term fitted on the other folds
+  bool kept = false;
+};
+
+// `weights` are SolveWeights' maps for `basis`; `shadowed` the cast shadows.
+// ridge: Tikhonov weight relative to the mean diagonal of the normal
+// equations (keeps sparse pixels near zero transfer).
+TransferFit FitTransfer(const PsObservations& obs, const std::vector<BasisMaterial>& basis,
+                        const std::vector<Image>& weights, const Image& normals_cam,
+                        const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, double ridge = 1e-4);
+
+}  // namespace svbrdf

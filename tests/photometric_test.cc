@@ -1,0 +1,249 @@
+// Photometric captures: the ORTHOGRAPHIC camera, normal integration, the
+// pixel mesh, the folder reader's errors, Lambertian normals and the
+// dictionary fit on closed-form observations.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+#include "io/scene.h"
+#include "photometric/dictionary_fit.h"
+#include "photometric/observations.h"
+#include "photometric/pixel_mesh.h"
+#include "photometric/ps_folder.h"
+
+namespace svbrdf {
+namespace {
+
+namespace fs = std::filesystem;
+
+Camera Ortho(int w, int h, double s) {
+  Camera c;
+  c.id = 1;
+  c.model = CameraModelId::kOrthographic;
+  c.width = w, c.height = h;
+  c.params = {s, s, 0.5 * w, 0.5 * h};
+  return c;
+}
+
+TEST(Orthographic, ProjectionIgnoresDepthAndRaysAreParallel) {
+  const Camera cam = Ortho(64, 48, 500);
+  EXPECT_EQ(CameraModelFromName("ORTHOGRAPHIC", "test"), CameraModelId::kOrthographic);
+  const Vec2 a = cam.Project(Vec3(0.01, -0.02, 0.5)), b = cam.Project(Vec3(0.01, -0.02, 3.0));
+  EXPECT_NEAR((a - b).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(a.x(), 500 * 0.01 + 32, 1e-12);
+  Vec3 origin, dir;
+  cam.PixelRay(Vec2(10.5, 7.25), &origin, &dir);
+  EXPECT_NEAR((dir - Vec3(0, 0, 1)).norm(), 0.0, 1e-15);
+  const Vec2 back = cam.Project(origin + 2.0 * dir);
+  EXPECT_NEAR(back.x(), 10.5, 1e-9);
+  EXPECT_NEAR(back.y(), 7.25, 1e-9);
+  EXPECT_NEAR((cam.ToViewer(Vec3(0.3, 0.1, 2)) - Vec3(0, 0, -1)).norm(), 0.0, 1e-15);
+  EXPECT_DOUBLE_EQ(cam.MetresPerPixel(7.0), 1.0 / 500);
+}
+
+// A sphere cap z(x, y) seen from the camera: normals in, depth back.
+TEST(Photometric, IntegrateNormalsRecoversASphere) {
+  const int w = 41, h = 41;
+  const double px = 0.001, radius = 0.018;
+  Image normals(w, h, 3), region(w, h, 1);
+  std::vector<double> truth(w * h, 0.0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double X = (x + 0.5 - 20.5) * px, Y = (y + 0.5 - 20.5) * px;
+      const double r2 = X * X + Y * Y;
+      if (r2 > 0.8 * radius * radius) continue;
+      const double Z = -std::sqrt(radius * radius - r2);  // towards the camera
+      const Vec3 n = Vec3(X, Y, Z).normalized();
+      for (int c = 0; c < 3; ++c) normals.at(x, y, c) = float(n[c]);
+      region.at(x, y, 0) = 1.0f;
+      truth[y * w + x] = Z;
+    }
+  const std::vector<double> depth = IntegrateNormals(normals, region, px);
+  double mean_t = 0, mean_d = 0;
+  int n = 0;
+  for (int i = 0; i < w * h; ++i)
+    if (region.pixels[i] > 0.5f) mean_t += truth[i], mean_d += depth[i], ++n;
+  mean_t /= n, mean_d /= n;
+  double worst = 0;
+  for (int i = 0; i < w * h; ++i)
+    if (region.pixels[i] > 0.5f) worst = std::max(worst, std::abs((depth[i] - mean_d) - (truth[i] - mean_t)));
+  EXPECT_LT(worst, 0.05 * px * 20);  // a small share of the cap's 18 mm radius
+  EXPECT_GT(truth[20 * w + 20] - mean_t, 0.001);  // the test measures something: the cap is not flat
+}
+
+TEST(Photometric, PixelMeshHasOneQuadPerPixelMappedOntoItsTexel) {
+  const Camera cam = Ortho(8, 6, 1000);
+  Image region(8, 6, 1), normals(8, 6, 3);
+  for (int y = 1; y < 5; ++y)
+    for (int x = 2; x < 6; ++x) region.at(x, y, 0) = 1.0f, normals.at(x, y, 2) = -1.0f;
+  Rigid3 pose;
+  pose.translation = Vec3(0, 0, 1);
+  const Mesh mesh = PixelGridMesh(cam, pose, region, std::vector<double>(48, 0.0), 1.0, normals);
+  EXPECT_EQ(mesh.faces.size(), 2u * 16u);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    Vec3 centre = Vec3::Zero();
+    Vec2 uv = Vec2::Zero();
+    for (int k = 0; k < 3; ++k) centre += mesh.positions[mesh.faces[f][k]] / 3, uv += mesh.texcoords[mesh.face_uvs[f][k]] / 3;
+    const Vec2 pixel = cam.Project(pose * centre);
+    // The texel holding uv is the pixel the face lies in.
+    EXPECT_EQ(int(std::floor(uv.x() * 8)), int(std::floor(pixel.x())));
+    EXPECT_EQ(int(std::floor((1 - uv.y()) * 6)), int(std::floor(pixel.y())));
+    EXPECT_NEAR((pose * centre).z(), 1.0, 1e-12);
+  }
+}
+
+// Closed-form observations of one pixel family: Lambert albedo plus a
+// Beckmann lobe from the dictionary, lights on a cone about the view.
+PsObservations SyntheticObservations(const std::vector<Vec3>& normals, const std::vector<Rgb>& diffuse, double specular,
+                                     const BasisMaterial& lobe) {
+  PsObservations o;
+  o.cam = Ortho(int(normals.size()), 1, 1000);
+  o.width = int(normals.size()), o.height = 1;
+  for (int i = 0; i < 40; ++i) {
+    const double theta = (10 + 40 * (i % 5) / 4.0) * kPi / 180, phi = 2 * kPi * i / 40 + 0.3 * (i % 5);
+    o.to_light.push_back(Vec3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), -std::cos(theta)));
+  }
+  o.lights = int(o.to_light.size());
+  o.region = Image(o.width, 1, 1, 1.0f);
+  o.valid = o.region;
+  for (int p = 0; p < o.width; ++p) {
+    o.pixel.push_back(p);
+    o.depth.push_back(1.0);
+  }
+  o.value.assign(size_t(o.width) * o.lights * 3, 0.0f);
+  o.weight.assign(o.value.size(), 1.0f);
+  for (int p = 0; p < o.width; ++p) {
+    const Frame fr = Frame::FromNormal(normals[p]);
+    for (int l = 0; l < o.lights; ++l) {
+      const Vec3 wi = fr.ToLocal(o.to_light[l]), wo = fr.ToLocal(o.to_viewer);
+      const double spec = wi.z() > 0 ? EvalModelD(lobe.spec, lobe.params.data(), wi, wo)[0] : 0.0;
+      for (int c = 0; c < 3; ++c)
+        o.value[o.At(p, l) + c] = float(std::max(0.0, wi.z()) * (diffuse[p][c] / kPi + specular * spec));
+    }
+  }
+  return o;
+}
+
+TEST(Photometric, LambertianNormalsAndDictionaryFitRecoverClosedFormPixels) {
+  const std::vector<BasisMaterial> dict = DictionaryCandidates();
+  ASSERT_EQ(dict[0].spec.Label(), "lambert");
+  const BasisMaterial lobe = dict.back();  // the broadest GGX lobe
+  std::vector<Vec3> normals;
+  std::vector<Rgb> diffuse;
+  for (int p = 0; p < 30; ++p) {
+    normals.push_back(Vec3(0.3 * std::sin(p), 0.25 * std::cos(1.3 * p), -1).normalized());
+    diffuse.push_back(Rgb(0.2 + 0.02 * p, 0.5, 0.8 - 0.02 * p));
+  }
+  // Lambert only: exact normals.
+  const PsObservations lam = SyntheticObservations(normals, diffuse, 0.0, lobe);
+  const Image n0 = LambertianNormals(lam, {}, 1);
+  for (int p = 0; p < 30; ++p)
+    EXPECT_LT(std::acos(std::min(1.0, Vec3(n0.at(p, 0, 0), n0.at(p, 0, 1), n0.at(p, 0, 2)).dot(normals[p]))), 1e-3);
+  // With the lobe: selection finds it, the weights come back.
+  const PsObservations glossy = SyntheticObservations(normals, diffuse, 0.4, lobe);
+  Image truth(30, 1, 3);
+  for (int p = 0; p < 30; ++p)
+    for (int c = 0; c < 3; ++c) truth.at(p, 0, c) = float(normals[p][c]);
+  DictionaryFitOptions o;
+  o.threads = 1;
+  o.prior_rows = 0;
+  o.selection_pixels = 50;
+  const BasisSelection sel = SelectBasis(glossy, truth, {}, o);
+  ASSERT_GE(sel.basis.size(), 2u);
+  EXPECT_EQ(sel.basis[1].name, lobe.name);
+  std::vector<Image> weights;
+  Image confidence;
+  SolveWeights(glossy, sel.basis, truth, {}, o, &weights, &confidence);
+  for (int p = 0; p < 30; ++p) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(weights[0].at(p, 0, c), diffuse[p][c], 1e-3);
+    EXPECT_NEAR(weights[1].at(p, 0, 1), 0.4, 1e-3);
+  }
+  // The normal search returns the true normals from a start 3 degrees off.
+  Image start = truth;
+  for (int p = 0; p < 30; ++p) {
+    const Vec3 m = (normals[p] + Vec3(0.05, -0.02, 0)).normalized();
+    for (int c = 0; c < 3; ++c) start.at(p, 0, c) = float(m[c]);
+  }
+  const Image refined = RefineNormals(glossy, sel.basis, start, {}, o);
+  for (int p = 0; p < 30; ++p)
+    EXPECT_LT(std::acos(std::min(1.0, Vec3(refined.at(p, 0, 0), refined.at(p, 0, 1), refined.at(p, 0, 2))
+                                          .normalized()
+                                          .dot(normals[p]))) * 180 / kPi,
+              0.3);
+}
+
+// A scratch copy of the test crop, for breaking one file at a time.
+std::string CropCopy(const std::string& name) {
+  const fs::path src = fs::path(SVBRDF_SOURCE_DIR) / "tests/data/diligent_cat_crop";
+  const fs::path dst = fs::temp_directory_path() / ("svbrdf_ps_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(dst);
+  fs::copy(src, dst, fs::copy_options::recursive);
+  return dst.string();
+}
+
+void ExpectImportError(const std::string& dir, const std::string& file_in_message) {
+  ImportPsOptions o;
+  o.in_dir = dir;
+  o.out_dir = dir + "_cap";
+  o.progress = false;
+  try {
+    ImportPs(o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(file_in_message), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(o.out_dir)) << "half-written capture left behind";
+  fs::remove_all(dir);
+}
+
+TEST(ImportPs, BadFoldersFailNamingTheFile) {
+  {
+    const std::string d = CropCopy("nolights");
+    fs::remove(d + "/light_directions.txt");
+    ExpectImportError(d, "light_directions.txt");
+  }
+  {
+    const std::string d = CropCopy("rows");
+    std::ofstream(d + "/light_intensities.txt") << "1 1 1\n1 1 1\n";
+    ExpectImportError(d, "light_intensities.txt: 2 rows for 96 photos");
+  }
+  {
+    const std::string d = CropCopy("nonunit");
+    std::ifstream in(d + "/light_directions.txt");
+    std::string all((std::istreambuf_iterator<char>(in)), {}), rest = all.substr(all.find('\n'));
+    std::ofstream(d + "/light_directions.txt") << "0.5 0.5 0.5" << rest;
+    ExpectImportError(d, "light_directions.txt: row 1");
+  }
+  {
+    const std::string d = CropCopy("masksize");
+    WriteImage(d + "/mask.png", Image(7, 5, 1, 1.0f), PixelFormat::kUInt8);
+    ExpectImportError(d, "but mask.png is 7x5");
+  }
+}
+
+TEST(ImportPs, WritesTrainingAndHeldOutScenesWithUnknownNormals) {
+  ImportPsOptions o;
+  o.in_dir = std::string(SVBRDF_SOURCE_DIR) + "/tests/data/diligent_cat_crop";
+  o.out_dir = (fs::temp_directory_path() / ("svbrdf_ps_import_" + std::to_string(getpid()))).string();
+  o.progress = false;
+  const ImportPsResult r = ImportPs(o);
+  EXPECT_EQ(r.training, 80);
+  EXPECT_EQ(r.held_out, 16);
+  const Scene train = LoadScene(o.out_dir + "/scene.json"), held = LoadScene(o.out_dir + "/heldout/scene.json");
+  EXPECT_FALSE(train.mesh_normals_known);
+  EXPECT_TRUE(IsPhotometricCapture(train));
+  EXPECT_EQ(held.images.front().light, 6);
+  EXPECT_EQ(held.LightById(6).type, LightType::kDirectional);
+  // DiLiGenT's y up, z towards the camera become the COLMAP frame's y down, z forward.
+  std::ifstream dirs(o.in_dir + "/light_directions.txt");
+  Vec3 first;
+  dirs >> first.x() >> first.y() >> first.z();
+  EXPECT_NEAR((train.LightById(1).to_light - FlipYZ(first)).norm(), 0.0, 1e-6);
+  fs::remove_all(o.out_dir);
+}
+
+}  // namespace
+}  // namespace svbrdf
