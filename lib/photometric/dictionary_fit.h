@@ -45,7 +45,7 @@ std::vector<BasisMaterial> DictionaryCandidates();
 //                       dominate)                                           [0, 0.5]
 struct DictionaryFitOptions {
   int folds = 5;
-  int selection_pixels = 3000;
+  int selection_pixels = 2000;
   double min_gain = 0.01;
   int max_basis = 5;
   double outlier_sigmas = 3.0;

@@ -51,7 +51,7 @@ struct ReconstructionJob {
   // lib/photometric): the per-pixel dictionary fit, and how many rounds of
   // basis selection <-> normal refinement estimate unknown normals.
   DictionaryFitOptions photometric;
-  int photometric_normal_rounds = 2;
+  int photometric_normal_rounds = 1;
   // Called on the gathered samples before the estimate (bench tools: e.g.
   // an oracle that drops samples by their disagreement with a known truth).
   std::function<void(GatherResult&)> after_gather;
