@@ -110,6 +110,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "photometric captures: relative cross-validated error drop an added basis BRDF must bring");
   c->add_option("--ps-prior-rows", job->photometric.prior_rows,
                 "photometric captures: pull of each pixel's weights towards the object's median, in photos' worth");
+  c->add_option("--ps-srgb-weight", job->photometric.srgb_weight_exponent,
+                "photometric captures: exponent of the sRGB slope in the fit weights (0 = linear, 1 = PSNR's units)");
   c->add_option("--ps-min-cos", job->photometric.min_cos,
                 "photometric captures: photos lighting a pixel at a cosine below this are left out of its fit");
   c->add_flag("!--no-report", job->report, "skip pictures and summary");

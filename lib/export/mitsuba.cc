@@ -147,6 +147,20 @@ struct Bounds {
   double Radius() const { return 0.5 * (hi - lo).norm(); }
 };
 
+// to_world of a sensor: Mitsuba's camera looks along +z with +y up and +x to
+// the left, ours (COLMAP) has +y down and +x right, so its columns are
+// (-x, -y, z) of world_from_cam's rotation `r`, x and y scaled by `scale`.
+void AddSensorToWorld(const Mat3& r, double scale, const Vec3& origin, XmlElement* s) {
+  std::string m;
+  for (int i = 0; i < 3; ++i)
+    m += Msg(XmlNumber(-scale * r(i, 0)), " ", XmlNumber(-scale * r(i, 1)), " ", XmlNumber(r(i, 2)), " ",
+             XmlNumber(origin[i]), " ");
+  m += "0 0 0 1";
+  XmlElement& tr = s->Add(XmlElement("transform"));
+  tr.Attr("name", "to_world");
+  tr.Add(XmlElement("matrix")).Attr("value", m);
+}
+
 void AddSamplerAndFilm(const Camera& cam, int spp, XmlElement* s) {
   XmlElement& sampler = s->Add(XmlElement("sampler"));
   sampler.Attr("type", "independent");
@@ -177,15 +191,7 @@ XmlElement OrthographicSensor(const Camera& cam, const Rigid3& cam_from_world, c
   const double dist = std::abs((cam_from_world * bounds.Centre()).z());
   s.Add(Named("float", "near_clip", XmlNumber(1e-5)));
   s.Add(Named("float", "far_clip", XmlNumber(10 * (dist + bounds.Radius()))));
-  const Mat3 r = world_from_cam.rotation.toRotationMatrix();
-  std::string m;
-  for (int i = 0; i < 3; ++i)
-    m += Msg(XmlNumber(-half_width * r(i, 0)), " ", XmlNumber(-half_width * r(i, 1)), " ", XmlNumber(r(i, 2)), " ",
-             XmlNumber(origin[i]), " ");
-  m += "0 0 0 1";
-  XmlElement& tr = s.Add(XmlElement("transform"));
-  tr.Attr("name", "to_world");
-  tr.Add(XmlElement("matrix")).Attr("value", m);
+  AddSensorToWorld(world_from_cam.rotation.toRotationMatrix(), half_width, origin, &s);
   AddSamplerAndFilm(cam, spp, &s);
   return s;
 }
@@ -222,13 +228,7 @@ XmlElement Sensor(const Camera& cam, const Rigid3& cam_from_world, const Bounds&
   // Mitsuba's camera looks along +z with +y up and +x to the left; ours
   // (COLMAP) has +y down and +x right: to_world = world_from_cam diag(-1, -1, 1).
   const Mat3 r = cam_from_world.rotation.conjugate().toRotationMatrix();
-  std::string m;
-  for (int i = 0; i < 3; ++i)
-    m += Msg(XmlNumber(-r(i, 0)), " ", XmlNumber(-r(i, 1)), " ", XmlNumber(r(i, 2)), " ", XmlNumber(eye[i]), " ");
-  m += "0 0 0 1";
-  XmlElement& tr = s.Add(XmlElement("transform"));
-  tr.Attr("name", "to_world");
-  tr.Add(XmlElement("matrix")).Attr("value", m);
+  AddSensorToWorld(r, 1.0, eye, &s);
   AddSamplerAndFilm(cam, spp, &s);
   return s;
 }
