@@ -383,6 +383,25 @@ Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>&
       if (best_n == n) step *= 0.5;
       else n = best_n;
     }
+    // Kept only if it predicts the pixel's photos left out of the fit
+    // (light folds) better than the start: a flat or biased objective (a
+    // lobe that absorbs the tilt) must not move the normal.
+    auto cv = [&](const Vec3& m) {
+      double e = 0;
+      for (int f = 0; f < o.folds; ++f) {
+        std::vector<uint8_t> train(use), test(use);
+        for (int l = 0; l < obs.lights; ++l) train[l] = use[l] && l % o.folds != f, test[l] = use[l] && l % o.folds == f;
+        const PixelSolve fit = SolveRows(BuildRows(obs, grey, p, m, 1, &train, sh, o, Gates{false, false}), K, 1, o, false);
+        const Rows r = BuildRows(obs, grey, p, m, 1, &test, sh, o, Gates{false, false});
+        for (size_t i = 0; i < r.b.size(); ++i) {
+          const double d = r.b[i] - Dot(r.Row(i), fit.w, 0, K);
+          e += d * d;
+        }
+      }
+      return e;
+    };
+    const Vec3 start = NormalAt(normals_cam, obs.pixel[p], obs.width);
+    if (cv(n) >= cv(start)) n = start;
     const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
     for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(n[c]);
     (void)best;

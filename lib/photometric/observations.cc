@@ -161,7 +161,11 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
     }
     Vec3 n(0, 0, -1);
     std::sort(lum.begin(), lum.end());
-    const size_t lo = lum.size() / 4, hi = std::max(lo, size_t(0.9 * lum.size()));
+    // The interquartile photos: cast and attached shadows, interreflection
+    // and 8-bit quantisation live in the darkest quarter, highlights in the
+    // brightest; too few left (a pixel mostly in shadow), then all of them.
+    size_t lo = lum.size() / 4, hi = (3 * lum.size()) / 4;
+    if (hi < lo + 6) lo = 0, hi = lum.size();
     std::vector<std::pair<double, int>> in(lum.begin() + lo, lum.begin() + hi);
     for (int round = 0; round < 2 && in.size() >= 3; ++round) {
       Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();

@@ -55,7 +55,7 @@ std::vector<uint8_t> CastShadows(const PsObservations& obs, const Mesh& mesh, in
 
 // Lambertian least squares on each pixel's luminance (Woodham 1980) over its
 // inlier photos: values below the pixel's 25th percentile (shadows,
-// interreflection) and above its 90th (highlights) are left out, then photos
+// interreflection) and above its 75th (highlights) are left out, then photos
 // the first estimate puts in attached shadow. Camera-frame unit normals, 3
 // channels; pixels with fewer than 3 inliers face the camera.
 Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads);

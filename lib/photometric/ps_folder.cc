@@ -264,9 +264,12 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
   SaveObj(mesh, (root / "mesh.obj").string(), /*write_normals=*/true);
   train.mesh_normals_known = known;
   held.mesh_normals_known = known;
-  if (!o.truth_normals_file.empty()) {
+  // The report measures the material's normals against a ground truth: the
+  // one given, else the normals the mesh carries.
+  const std::string truth_file = !o.truth_normals_file.empty() ? o.truth_normals_file : o.normals_file;
+  if (!truth_file.empty()) {
     fs::create_directories(root / "gt");
-    const Image truth = ReadImage(o.truth_normals_file);
+    const Image truth = ReadImage(truth_file);
     WriteImage((root / "gt" / "normals_camera.exr").string(), truth, PixelFormat::kFloat);
     train.ground_truth = {{"normals_camera", "gt/normals_camera.exr"}};
     held.ground_truth = {{"normals_camera", "../gt/normals_camera.exr"}};

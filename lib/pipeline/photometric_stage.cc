@@ -76,8 +76,8 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
   DictionaryFitOptions fo = job.photometric;
   fo.threads = job.estimate.threads;
   fo.Check();
-  if (job.photometric_normal_rounds < 1 || job.photometric_normal_rounds > 10)
-    throw Error(Msg("reconstruct: photometric normal rounds must be in [1, 10], got ", job.photometric_normal_rounds));
+  if (job.photometric_normal_rounds < 0 || job.photometric_normal_rounds > 10)
+    throw Error(Msg("reconstruct: photometric normal rounds must be in [0, 10], got ", job.photometric_normal_rounds));
   std::fprintf(stderr, "photometric capture: one fixed orthographic view, %zu directional lights: per-pixel fit\n",
                scene.images.size());
   timer->Start("read photos");

@@ -49,9 +49,11 @@ struct ReconstructionJob {
   double fit_max_foreign_share = 0.01;
   // Photometric captures (one fixed orthographic view, directional lights;
   // lib/photometric): the per-pixel dictionary fit, and how many rounds of
-  // basis selection <-> normal refinement estimate unknown normals.
+  // basis selection <-> per-pixel normal search follow the robust Lambertian
+  // normals when the normals are unknown (0: none; on DiLiGenT the search
+  // moved the normals away from the scans', bench_results/diligent.md).
   DictionaryFitOptions photometric;
-  int photometric_normal_rounds = 1;
+  int photometric_normal_rounds = 0;
   // Called on the gathered samples before the estimate (bench tools: e.g.
   // an oracle that drops samples by their disagreement with a known truth).
   std::function<void(GatherResult&)> after_gather;
