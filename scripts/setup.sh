@@ -14,6 +14,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev
   python3 python3-numpy python3-matplotlib python3-opencv python3-openimageio
   libcgal-dev libcgal-demo
+  time slurm-wlm  # batch.sh's /usr/bin/time; a private single-node Slurm for scripts/test_slurm.sh
 )
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -23,8 +24,8 @@ if [ ${#missing[@]} -gt 0 ]; then
   echo "installing: ${missing[*]}"
   SUDO=""
   if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-  $SUDO apt-get update
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y --no-install-recommends "${missing[@]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" > /dev/null
 fi
 
 JOBS=$(nproc)
