@@ -11,9 +11,11 @@ Steps: export (one view file per image entry of SCENE.json), relight with
 --spp 4 (16 jittered samples per pixel: pixel-area averages like Mitsuba's box
 filter) both the material and the export's as_rendered/ material (every basis
 material replaced by its Mitsuba form), render every view with the scalar_rgb
-variant, then per view and for both references ("material": end to end,
+variant, then per view and for each reference ("material": end to end,
 including the nearest-form error of models Mitsuba lacks; "as_rendered": the
-export and the two renderers alone):
+export and the two renderers alone; "photos": the scene's own photos, e.g. the
+held-out photos of a capture, which is what a user of the export sees;
+"relight_vs_photos" scores relight's image against the same photos):
 relative RMSE = sqrt(sum (m - r)^2 / sum r^2) over linear RGB, and PSNR on
 sRGB-encoded values clipped to [0, 1] after dividing by the exposure (as
 `svbrdf evaluate` computes it), over relight's mask and over the mask eroded
@@ -88,20 +90,28 @@ def main():
         mi.Bitmap(img.astype(np.float32)).write(os.path.join(args.work, os.path.basename(v["image"]).rsplit(".", 1)[0] + "_mitsuba.exr"))
         mask_rel = v["mask"] if v["mask"] else os.path.splitext(v["image"])[0] + ".mask.png"
         r = {"view": v["image"], "render_s": round(secs, 2)}
-        for name, d in (("material", relit_dir), ("as_rendered", relit_forms_dir)):
+        scene_dir = os.path.dirname(os.path.abspath(args.scene))
+        relit_img = None
+        for name, d in (("material", relit_dir), ("as_rendered", relit_forms_dir), ("photos", scene_dir)):
             ref = np.array(mi.Bitmap(os.path.join(d, v["image"])), dtype=np.float64)[..., :3]
-            mask = np.array(mi.Bitmap(os.path.join(d, mask_rel)), dtype=np.float64)
+            mask = np.array(mi.Bitmap(os.path.join(d if name != "photos" else relit_dir, mask_rel)), dtype=np.float64)
             mask = mask.reshape(mask.shape[0], mask.shape[1], -1)[..., 0]
             r[name] = {"mask": metrics(img, ref, mask, v["exposure"]), "interior": metrics(img, ref, erode(mask), v["exposure"])}
+            if name == "material":
+                relit_img = ref
+            if name == "photos":
+                r["relight_vs_photos"] = {"mask": metrics(relit_img, ref, mask, v["exposure"]),
+                                          "interior": metrics(relit_img, ref, erode(mask), v["exposure"])}
         results.append(r)
         print(f"{v['image']} ({secs:.1f} s): " + "; ".join(
             f"vs relight of {n}: {r[n]['mask']['psnr_srgb']:.2f} dB, rel RMSE {r[n]['mask']['rel_rmse_linear']:.4f} "
             f"(interior {r[n]['interior']['psnr_srgb']:.2f} dB, {r[n]['interior']['rel_rmse_linear']:.4f})"
-            for n in ("material", "as_rendered")), flush=True)
+            for n in ("material", "as_rendered", "photos")) +
+            f"; relight vs photos {r['relight_vs_photos']['mask']['psnr_srgb']:.2f} dB", flush=True)
     summary = {"material": args.material, "scene": args.scene, "mitsuba": mi.__version__, "variant": "scalar_rgb",
                "mitsuba_spp": args.spp, "relight_spp": "4x4 jittered", "views": results,
                "export_report": json.load(open(os.path.join(exp_dir, "export_report.json")))}
-    for n in ("material", "as_rendered"):
+    for n in ("material", "as_rendered", "photos", "relight_vs_photos"):
         for region in ("mask", "interior"):
             summary[f"{n}_{region}"] = {
                 "mean_psnr_srgb": float(np.mean([r[n][region]["psnr_srgb"] for r in results])),

@@ -76,7 +76,7 @@ constexpr double kF82MaxError = 0.03;
 // coated material's base albedo is scaled to a white maximum.
 void MakeEnergyConserving(const ModelSpec& spec, std::vector<double>* p) {
   const std::vector<ParamInfo> params = spec.Params();
-  if (spec.family == Family::kConductor) return;
+  if (spec.family == Family::kConductor || spec.family == Family::kGltf) return;  // bounded by their ranges
   const bool has_rs =
       spec.family != Family::kLambert && spec.family != Family::kOrenNayar && spec.family != Family::kCoated;
   double max_sum = 0;
@@ -130,9 +130,9 @@ TEST(ModelSpec, LabelsRoundTripAndAreUnique) {
                         "cook_torrance-ggx-smith-schlick", "cook_torrance-beckmann-nofresnel"})
     EXPECT_EQ(labels.count(l), 1u) << l;
   for (const char* l : {"conductor-ggx", "conductor-beckmann", "conductor-ggx-schlick", "conductor-beckmann-f82",
-                        "coated-ggx", "coated-beckmann"})
+                        "coated-ggx", "coated-beckmann", "gltf"})
     EXPECT_EQ(labels.count(l), 1u) << l;
-  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u);
+  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u + 1u);
 }
 
 TEST(ModelSpec, NamesAreFamilies) {
@@ -206,7 +206,8 @@ TEST(ModelSpec, LinearFlagMarksAmplitudes) {
     for (const ParamInfo& p : spec.Params()) {
       const std::string stem = p.name.substr(p.name.find('.') + 1);  // drop "lobeK."
       const bool amplitude = (stem.rfind("rd_", 0) == 0 && spec.family != Family::kCoated) ||
-                             stem.rfind("rs_", 0) == 0 || stem.rfind("rho_", 0) == 0 || stem.rfind("f0_", 0) == 0;
+                             stem.rfind("rs_", 0) == 0 || stem.rfind("rho_", 0) == 0 || stem.rfind("f0_", 0) == 0 ||
+                             stem.rfind("base_color_", 0) == 0;
       EXPECT_EQ(p.linear, amplitude) << spec.Label() << " " << p.name;
     }
 }

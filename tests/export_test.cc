@@ -20,6 +20,7 @@
 #include "export/gltf_brdf.h"
 #include "export/mitsuba.h"
 #include "export/nearest_form.h"
+#include "export/render_target.h"
 #include "export/rough_plastic.h"
 #include "export/xml.h"
 #include "io/files.h"
@@ -248,6 +249,65 @@ TEST(GltfBrdf, ReciprocalAndEnergyBounded) {
     }
 }
 
+// The Khronos glTF 2.0 specification's appendix B written out directly, as
+// an independent check of brdf/gltf_pbr.h (which the fit and the `gltf` model use).
+TEST(GltfBrdf, MatchesTheSpecificationsFormula) {
+  const Vec3 wi = Vec3(0.3, 0.1, 0.9).normalized(), wo = Vec3(-0.5, 0.2, 0.7).normalized();
+  const Rgb base(0.8, 0.5, 0.2);
+  for (double metallic : {0.0, 0.4, 1.0})
+    for (double r : {0.1, 0.5, 1.0}) {
+      const double a = r * r, a2 = a * a;
+      const Vec3 h = (wi + wo).normalized();
+      const double den = h.z() * h.z() * (a2 - 1) + 1, D = a2 / (kPi * den * den);
+      auto g1 = [&](double c) { return 2 * c / (c + std::sqrt(a2 + (1 - a2) * c * c)); };
+      const double vis = g1(wi.z()) * g1(wo.z()) / (4 * wi.z() * wo.z());
+      const double s = std::pow(1 - std::abs(wo.dot(h)), 5), fd = 0.04 + 0.96 * s;
+      const Rgb dielectric = (1 - fd) * base / kPi + fd * D * vis;
+      const Rgb metal = D * vis * (base + (1 - base) * s);
+      const Rgb expected = (1 - metallic) * dielectric + metallic * metal;
+      EXPECT_LT((GltfBrdf(base, metallic, r, wi, wo) - expected).abs().maxCoeff(), 1e-12 * (1 + expected.maxCoeff()));
+      const double p[5] = {base[0], base[1], base[2], metallic, r};
+      EXPECT_LT((EvalModelD(ModelSpec::FromLabel("gltf"), p, wi, wo) - expected).abs().maxCoeff(), 1e-12 * (1 + expected.maxCoeff()));
+    }
+}
+
+// `reconstruct --for mitsuba` keeps exactly the models whose Mitsuba form is exact.
+TEST(RenderTarget, MitsubaExactnessAgreesWithTheNearestForms) {
+  const DirectionPairs d = DirectionPairs::Standard();
+  int exact = 0;
+  for (const ModelSpec& spec : AllModelSpecs()) {
+    BasisMaterial b;
+    b.name = "b";
+    b.spec = spec;
+    b.params = spec.InitialParams();
+    const NearestForm f = MapToNearestForm(b, d);
+    EXPECT_EQ(RendersExactly(spec, RenderTarget::kMitsuba), f.exact) << spec.Label() << ": " << f.how;
+    if (RendersExactly(spec, RenderTarget::kMitsuba)) {
+      ++exact;
+      EXPECT_LT(f.error, 1e-6) << spec.Label();
+    }
+    EXPECT_TRUE(RendersExactly(spec, RenderTarget::kAny));
+    EXPECT_EQ(RendersExactly(spec, RenderTarget::kGltf), spec.Label() == "gltf");
+  }
+  EXPECT_GE(exact, 5);
+}
+
+TEST(RenderTarget, CandidatesKeepOnlyExactModels) {
+  const std::vector<std::string> defaults = {"lambert", "oren_nayar", "lafortune-1", "cook_torrance-ggx",
+                                             "conductor-ggx", "coated-ggx"};
+  EXPECT_EQ(CandidatesFor(RenderTarget::kAny, defaults), defaults);
+  EXPECT_EQ(CandidatesFor(RenderTarget::kMitsuba, defaults),
+            (std::vector<std::string>{"lambert", "cook_torrance-ggx-smith", "conductor-ggx"}));
+  // None of the wanted ones is exact: the target's own exact set.
+  const auto own = CandidatesFor(RenderTarget::kMitsuba, {"lafortune-2"});
+  EXPECT_GE(own.size(), 5u);
+  for (const std::string& l : own) EXPECT_TRUE(RendersExactly(ModelSpec::FromLabel(l), RenderTarget::kMitsuba)) << l;
+  EXPECT_EQ(CandidatesFor(RenderTarget::kGltf, defaults), (std::vector<std::string>{"gltf"}));
+  EXPECT_EQ(ParseRenderTarget("mitsuba"), RenderTarget::kMitsuba);
+  EXPECT_EQ(ParseRenderTarget(""), RenderTarget::kAny);
+  EXPECT_THROW(ParseRenderTarget("blender"), Error);
+}
+
 // A small material on a sphere with a trivial atlas, two basis materials
 // with different per-texel weights.
 Material TwoMaterialSphere(int res = 32) {
@@ -303,6 +363,22 @@ TEST(GltfFit, ReportedErrorMatchesDirectEvaluation) {
   EXPECT_NEAR(lam.base_color[0], 0.6, 0.1);
   // Glossy texel: smoother than the Lambert one.
   EXPECT_LT(t[size_t(3) * res + 31].roughness, lam.roughness);
+}
+
+// A texel of one basis material that is a glTF BRDF itself exports exactly.
+TEST(GltfFit, AGltfBasisMaterialIsReproducedExactly) {
+  const int res = 32;
+  Material m = TwoMaterialSphere(res);
+  m.basis = {Basis("gltf", {{"base_color_r", 0.7}, {"base_color_g", 0.3}, {"base_color_b", 0.1},
+                            {"metallic", 0.37}, {"roughness", 0.41}})};
+  m.weights = {Image(res, res, 3, 1.0f)};
+  GltfExportOptions o;
+  o.threads = 1;
+  const std::vector<GltfTexel> t = FitGltfTexels(m, o);
+  EXPECT_LT(t[0].error, 1e-6);  // the normal equations in double
+  EXPECT_NEAR(t[0].metallic, 0.37, 1e-12);
+  EXPECT_NEAR(t[0].roughness, 0.41, 1e-12);
+  EXPECT_NEAR(t[0].base_color[1], 0.3, 1e-9);
 }
 
 std::string TempDir(const std::string& name) {

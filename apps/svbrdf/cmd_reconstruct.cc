@@ -114,6 +114,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "photometric captures: exponent of the sRGB slope in the fit weights (0 = linear, 1 = PSNR's units)");
   c->add_option("--ps-min-cos", job->photometric.min_cos,
                 "photometric captures: photos lighting a pixel at a cosine below this are left out of its fit");
+  c->add_option("--for", job->render_target,
+                "fit only models the export target renders exactly: mitsuba (lambert, Smith Cook-Torrance, conductors)\n"
+                "or gltf (the glTF metallic-roughness BRDF); any = every candidate (default)")
+      ->check(CLI::IsMember({"any", "mitsuba", "gltf"}));
   c->add_flag("!--no-report", job->report, "skip pictures and summary");
   c->callback([job, candidates, run] {
     *run = [job, candidates] {

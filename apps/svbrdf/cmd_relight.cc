@@ -46,15 +46,13 @@ void RegisterRelight(CLI::App& app, Runner* run) {
   c->add_option("--samples", a->options.env_samples, "--envmap: environment (+ as many cosine) samples per pixel sample");
   c->add_option("--envmap-scale", a->options.envmap_scale, "--envmap: multiplies the environment's radiance");
   c->callback([a, c, run] {
-    // A photo's pixel is the integral over its area (cameras, Mitsuba, and
-    // this project's synth at 2 x 2 samples): by default the pixel is
-    // integrated until converged. At the pixel centre the true material of
-    // the synthetic default capture scores 47.1 dB against its own photos,
-    // converged 52.8 dB; the Mitsuba bunny scan's truth 48.0 (--spp 4)
-    // against 50.5 dB. --envmap renders take their own --samples.
+    // A photo's pixel is the integral over its area: integrated until
+    // converged by default (RelightOptions::PixelIntegrating). --envmap
+    // renders take their own --samples.
     if (c->count("--spp") == 0 && c->count("--adaptive-rounds") == 0 && a->options.envmap.empty()) {
-      a->options.samples_per_pixel = 8;
-      a->options.adaptive_max_rounds = 16;
+      const RelightOptions d = RelightOptions::PixelIntegrating();
+      a->options.samples_per_pixel = d.samples_per_pixel;
+      a->options.adaptive_max_rounds = d.adaptive_max_rounds;
     }
     *run = [a] {
       const auto t0 = std::chrono::steady_clock::now();

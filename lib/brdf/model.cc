@@ -17,6 +17,7 @@ const char* FamilyName(Family f) {
     case Family::kCookTorrance: return "cook_torrance";
     case Family::kConductor: return "conductor";
     case Family::kCoated: return "coated";
+    case Family::kGltf: return "gltf";
   }
   return "?";
 }
@@ -140,6 +141,12 @@ std::vector<ModelSpec> AllModelSpecs() {
     s.shadowing = Shadowing::kSmith;
     all.push_back(s);
   }
+  ModelSpec gltf;
+  gltf.family = Family::kGltf;
+  gltf.distribution = Distribution::kGGX;
+  gltf.shadowing = Shadowing::kSmith;
+  gltf.fresnel = FresnelMode::kSchlick;
+  all.push_back(gltf);
   return all;
 }
 

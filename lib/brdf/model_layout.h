@@ -17,6 +17,7 @@
 #include "brdf/conductor.h"
 #include "brdf/cook_torrance.h"
 #include "brdf/cosine_lobe.h"
+#include "brdf/gltf_pbr.h"
 #include "brdf/lafortune.h"
 #include "brdf/lambert.h"
 #include "brdf/model.h"
@@ -100,6 +101,12 @@ template <class V, class T> void VisitParams(V& v, const ModelSpec&, Coated<T>& 
   v.Scalar(m.n, "ior", "index of refraction of the coat", 1.1, 2.5, 1.5);
 }
 
+template <class V, class T> void VisitParams(V& v, const ModelSpec&, GltfPbr<T>& m) {
+  v.Rgb(m.base, "base_color", "glTF baseColor", 0.0, 1.0, 0.5);
+  v.Scalar(m.metallic, "metallic", "glTF metallic (0 dielectric, 1 metal)", 0.0, 1.0, 0.0);
+  v.Scalar(m.roughness, "roughness", "glTF perceptual roughness (GGX alpha = roughness^2)", 0.05, 1.0, 0.5);
+}
+
 // Calls fn(model) with a default-initialised value class of the spec's family
 // and options; the caller fills the parameters with VisitParams.
 template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
@@ -136,6 +143,7 @@ template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
       fn(m);
       return;
     }
+    case Family::kGltf: { GltfPbr<T> m; fn(m); return; }
   }
 }
 

@@ -7,6 +7,7 @@
 #include "export/directions.h"
 #include "export/gltf.h"
 #include "export/gltf_brdf.h"
+#include "export/nearest_form.h"
 
 namespace svbrdf {
 
@@ -39,6 +40,12 @@ std::vector<GltfTexel> FitGltfTexels(const Material& m, const GltfExportOptions&
   for (int im = 0; im < o.metallic_steps; ++im)
     for (int ir = 0; ir < o.roughness_steps; ++ir) grid.push_back(
         {double(im) / (o.metallic_steps - 1), 0.03 + 0.97 * ir / (o.roughness_steps - 1), 0, 0, 0, {}, {}});
+  // Basis materials that are glTF BRDFs themselves (reconstruct --for gltf)
+  // add their own (metallic, roughness): a texel of one such material is then
+  // reproduced exactly.
+  for (const BasisMaterial& b : m.basis)
+    if (b.spec.family == Family::kGltf)
+      grid.push_back({BasisParam(b, "metallic"), BasisParam(b, "roughness"), 0, 0, 0, {}, {}});
   ParallelFor(static_cast<long>(grid.size()), o.threads, [&](long gi) {
     GridPoint& g = grid[gi];
     g.af.assign(size_t(K) * 3, 0.0);

@@ -329,6 +329,10 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
                {"relative_error", f.error}, {"diffuse_rd", {f.rd[0], f.rd[1], f.rd[2]}}};
     if (f.has_lobe()) jb["lobe"] = LobeReport(f);
     report["basis"].push_back(jb);
+    if (!f.exact)
+      warnings.push_back(Msg("basis '", b.name, "' (", b.spec.Label(), ") has no exact Mitsuba form: ", f.how,
+                             " (relative error ", f.error, "); `svbrdf reconstruct SCENE --for mitsuba` fits only "
+                             "models Mitsuba renders exactly"));
   }
   const int parts = 1 + lobes;
   // The material as Mitsuba renders it (every basis replaced by its form),

@@ -8,18 +8,18 @@
 #include "core/error.h"
 
 namespace svbrdf {
-namespace {
-
-double Param(const BasisMaterial& b, const std::string& name) {
+double BasisParam(const BasisMaterial& b, const std::string& name) {
   const auto params = b.spec.Params();
   for (size_t i = 0; i < params.size(); ++i)
     if (params[i].name == name) return b.params[i];
   throw Error(Msg("basis material '", b.name, "' (", b.spec.Label(), ") has no parameter '", name, "'"));
 }
 
-Rgb ParamRgb(const BasisMaterial& b, const std::string& name) {
-  return Rgb(Param(b, name + "_r"), Param(b, name + "_g"), Param(b, name + "_b"));
+Rgb BasisParamRgb(const BasisMaterial& b, const std::string& name) {
+  return Rgb(BasisParam(b, name + "_r"), BasisParam(b, name + "_g"), BasisParam(b, name + "_b"));
 }
+
+namespace {
 
 double Dot(const std::vector<double>& a, const std::vector<double>& b, int stride_a, int off_a, int stride_b,
            int off_b, size_t n) {
@@ -105,8 +105,8 @@ struct OurConductorF {
   double f0, tint;
   bool f82;
   OurConductorF(const BasisMaterial& b, int ch)
-      : f0(ParamRgb(b, "f0")[ch]),
-        tint(b.spec.fresnel == FresnelMode::kF82Tint ? ParamRgb(b, "f82_tint")[ch] : 1.0),
+      : f0(BasisParamRgb(b, "f0")[ch]),
+        tint(b.spec.fresnel == FresnelMode::kF82Tint ? BasisParamRgb(b, "f82_tint")[ch] : 1.0),
         f82(b.spec.fresnel == FresnelMode::kF82Tint) {}
   double operator()(double c) const { return f82 ? brdf::FresnelF82Tint(c, f0, tint) : brdf::FresnelSchlickF0(c, f0); }
 };
@@ -226,16 +226,16 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
   const Distribution dist = b.spec.distribution == Distribution::kGGX ? Distribution::kGGX : Distribution::kBeckmann;
   switch (b.spec.family) {
     case Family::kLambert:
-      f.rd = ParamRgb(b, "rd");
+      f.rd = BasisParamRgb(b, "rd");
       f.exact = true;
       f.how = "exact: diffuse";
       break;
     case Family::kCookTorrance: {
-      f.rd = ParamRgb(b, "rd");
+      f.rd = BasisParamRgb(b, "rd");
       f.lobe = NearestForm::Lobe::kRoughConductor;
-      f.rs = ParamRgb(b, "rs");
-      f.alpha = Param(b, "roughness");
-      f.eta = Rgb::Constant(Param(b, "ior"));
+      f.rs = BasisParamRgb(b, "rs");
+      f.alpha = BasisParam(b, "roughness");
+      f.eta = Rgb::Constant(BasisParam(b, "ior"));
       f.fresnel = b.spec.fresnel != FresnelMode::kNone;
       f.distribution = dist;
       std::string approx;
@@ -251,10 +251,10 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
       f.rs = Rgb::Ones();
       f.fresnel = true;
       f.distribution = dist;
-      f.alpha = Param(b, "roughness");
+      f.alpha = BasisParam(b, "roughness");
       if (b.spec.fresnel == FresnelMode::kExact) {
-        f.eta = ParamRgb(b, "eta");
-        f.k = ParamRgb(b, "kappa");
+        f.eta = BasisParamRgb(b, "eta");
+        f.k = BasisParamRgb(b, "kappa");
         f.exact = true;
         f.how = "exact: roughconductor with eta, k per channel";
       } else {
@@ -264,8 +264,8 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
     case Family::kCoated:
       f.lobe = NearestForm::Lobe::kRoughPlastic;
       f.distribution = dist;
-      f.alpha = Param(b, "roughness");
-      f.ior = Param(b, "ior");
+      f.alpha = BasisParam(b, "roughness");
+      f.ior = BasisParam(b, "ior");
       f.plastic = RoughPlastic::Make(dist, f.alpha, f.ior);
       {
         // Least-squares scale of Mitsuba's base term t(mu_i) t(mu_o) onto ours
@@ -279,7 +279,7 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
           to += w * mi * ours;
         }
         f.base_scale = tt > 0 ? to / tt : 1.0;
-        const Rgb rd = ParamRgb(b, "rd");
+        const Rgb rd = BasisParamRgb(b, "rd");
         const double f_int = brdf::DielectricInternalDiffuseReflectance(f.ior);
         for (int c = 0; c < 3; ++c)
           f.base[c] = BaseForCoupling(f.base_scale * rd[c] / (1 - rd[c] * f_int), f.plastic.internal_reflectance);

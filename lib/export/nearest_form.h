@@ -85,6 +85,11 @@ struct NearestForm {
 
 NearestForm MapToNearestForm(const BasisMaterial& basis, const DirectionPairs& d);
 
+// A basis material's parameter by its Params() name (colours: name_r, _g, _b);
+// throws naming the material and the parameter when it has none.
+double BasisParam(const BasisMaterial& b, const std::string& name);
+Rgb BasisParamRgb(const BasisMaterial& b, const std::string& name);
+
 // The Mitsuba diffuse_reflectance d whose nonlinear coupling d / (1 - d f_int)
 // equals g (>= 0): d = g / (1 + g f_int).
 inline double BaseForCoupling(double g, double f_int) { return g / (1 + g * f_int); }

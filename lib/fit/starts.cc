@@ -56,6 +56,7 @@ std::vector<int> ShapeParams(const ModelSpec& spec, const std::vector<ParamInfo>
       case Family::kCookTorrance:
       case Family::kConductor:
       case Family::kCoated:
+      case Family::kGltf:
         if (n == "roughness" || n == "m" || n == "alpha") out.push_back(i);
         break;
       default:
@@ -160,10 +161,13 @@ std::vector<std::vector<double>> ShapeStarts(const ModelSpec& spec, const std::v
   static const std::vector<double> kRoughness{0.05, 0.15, 0.4};
   // Metals are often polished: start one fit near a mirror.
   static const std::vector<double> kMetalRoughness{0.02, 0.08, 0.3};
+  // glTF's roughness is perceptual (alpha = r^2): the same alphas.
+  static const std::vector<double> kPerceptualRoughness{0.22, 0.39, 0.63};
   const std::vector<double>& values = spec.family == Family::kConductor ? kMetalRoughness
                                       : spec.family == Family::kCookTorrance || spec.family == Family::kCoated
                                           ? kRoughness
-                                          : kExponents;
+                                      : spec.family == Family::kGltf ? kPerceptualRoughness
+                                                                     : kExponents;
   for (size_t s = 0; s < values.size(); ++s) {
     std::vector<double> p = base;
     // Lobe k of start s takes value (s + k) mod 3: lobes start apart and every

@@ -272,7 +272,11 @@ PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial
 BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, const std::vector<uint8_t>& shadowed,
                            const DictionaryFitOptions& o) {
   o.Check();
-  const std::vector<BasisMaterial> dict = DictionaryCandidates();
+  std::vector<BasisMaterial> dict;
+  for (const BasisMaterial& b : DictionaryCandidates())
+    if (!o.allow_model || o.allow_model(b.spec)) dict.push_back(b);
+  if (dict.empty() || dict[0].spec.family != Family::kLambert)
+    throw Error("photometric: the allowed dictionary models must include Lambert");
   const GreyBasis grey(dict);
   const long P = obs.P();
   const long stride = std::max<long>(1, P / o.selection_pixels);

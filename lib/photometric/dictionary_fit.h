@@ -14,6 +14,7 @@
 // diffuse colour, specular colour and (by mixing lobes) roughness.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -53,6 +54,9 @@ struct DictionaryFitOptions {
   double prior_rows = 0.0;
   double srgb_weight_exponent = 0.5;  // see PsObservations::weight
   int threads = 0;
+  // Dictionary models allowed (null: all); Lambert, the first, must be
+  // (`reconstruct --for` keeps only what the export target renders exactly).
+  std::function<bool(const ModelSpec&)> allow_model;
   void Check() const;
 };
 

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "evaluate/metrics.h"
+#include "export/render_target.h"
 #include "io/material.h"
 #include "photometric/dictionary_fit.h"
 #include "photometric/observations.h"
@@ -75,6 +76,11 @@ Image NormalsPicture(const Image& n_cam, const Image& region) {
 nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const Scene& scene, StageTimer* timer) {
   DictionaryFitOptions fo = job.photometric;
   fo.threads = job.estimate.threads;
+  const RenderTarget target = ParseRenderTarget(job.render_target);
+  if (target == RenderTarget::kGltf)
+    throw Error("reconstruct --for gltf: photometric captures fit a per-pixel mixture of dictionary BRDFs, "
+                "which glTF cannot hold; use --for mitsuba or no --for");
+  if (target != RenderTarget::kAny) fo.allow_model = [target](const ModelSpec& s) { return RendersExactly(s, target); };
   fo.Check();
   if (job.photometric_normal_rounds < 0 || job.photometric_normal_rounds > 10)
     throw Error(Msg("reconstruct: photometric normal rounds must be in [0, 10], got ", job.photometric_normal_rounds));
@@ -153,10 +159,14 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
   for (Image& w : material.weights) FillFromNearest(obs.valid, &w);
   material.confidence = confidence;
   timer->Start("light transfer");
-  const TransferFit transfer = FitTransfer(obs, sel.basis, material.weights, normals, shadowed, fo);
+  // No renderer but ours reads light_transfer: an export target leaves it out.
+  const TransferFit transfer = target == RenderTarget::kAny
+                                   ? FitTransfer(obs, sel.basis, material.weights, normals, shadowed, fo)
+                                   : TransferFit{};
   std::fprintf(stderr, "  light transfer beyond the BRDF: cross-validated error %.4g -> %.4g: %s\n",
                transfer.cv_error_without, transfer.cv_error_with,
                transfer.kept ? Msg("kept, ", transfer.terms, " terms").c_str() : "not kept");
+  summary["render_target"] = RenderTargetName(target);
   summary["light_transfer"] = {{"cv_error_without", transfer.cv_error_without},
                                {"cv_error_with", transfer.cv_error_with},
                                {"terms", transfer.terms},

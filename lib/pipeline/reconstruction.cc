@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "evaluate/metrics.h"
+#include "export/render_target.h"
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/normal_map.h"
@@ -79,7 +80,7 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
   const ImageEntry& e = scene.images[index];
   RayTracer tracer(material.mesh);
   MaterialShader shader(material);
-  RelightOptions ro;
+  RelightOptions ro = RelightOptions::PixelIntegrating();
   ro.progress = false;
   RenderedView v = RenderView(tracer, shader, scene, index, ro);
   const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
@@ -90,7 +91,8 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
   WriteImage(dir + "/" + tag + "_relit.png", v.color, PixelFormat::kUInt8, ColorSpace::kSRGB);
   WriteImage(dir + "/" + tag + "_error.png", ErrorMap(photo, v.color, 0.05 * e.exposure), PixelFormat::kUInt8,
              ColorSpace::kLinear);
-  return {{"view", e.file}, {"psnr_srgb", m.psnr_srgb}, {"rel_rmse_linear", m.rel_rmse_linear}};
+  return {{"view", e.file}, {"psnr_srgb", m.psnr_srgb}, {"rel_rmse_linear", m.rel_rmse_linear},
+          {"relight", ro.SamplingDescription()}};
 }
 
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
@@ -104,6 +106,11 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   for (const auto& [name, v] : {std::pair{"--fit-max-unlit-share", job.fit_max_unlit_share},
                                 std::pair{"--fit-max-foreign-share", job.fit_max_foreign_share}})
     if (!(v >= 0 && v <= 1)) throw Error(Msg("reconstruct: ", name, " must be in [0, 1], got ", v));
+  const RenderTarget target = ParseRenderTarget(job.render_target);
+  if (target != RenderTarget::kAny && !job.estimate.force_model.empty() &&
+      !RendersExactly(ModelSpec::FromLabel(job.estimate.force_model), target))
+    throw Error(Msg("reconstruct: --model ", job.estimate.force_model, " has no exact ", RenderTargetName(target),
+                    " form; drop --model or --for ", RenderTargetName(target)));
   timer.Start("load capture");
   const Scene scene = LoadScene(job.scene_path);
   if (scene.images.empty()) throw Error(Msg(job.scene_path, ": images: the capture has no photos"));
@@ -117,6 +124,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
 
   timer.Start("fit + cluster");
   ReconstructOptions eo = job.estimate;
+  eo.candidate_models = CandidatesFor(target, eo.candidate_models);
+  if (target != RenderTarget::kAny)
+    std::fprintf(stderr, "  --for %s: candidate models %s\n", RenderTargetName(target).c_str(),
+                 nlohmann::json(eo.candidate_models).dump().c_str());
   if (job.time_budget_s > 0)
     eo.deadline = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                               std::chrono::duration<double>(job.time_budget_s - std::max(0.3, 0.05 * job.time_budget_s)));
@@ -215,6 +226,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                         {"saturated", g.stats.saturated}, {"invalid_pixel", g.stats.invalid}};
   summary["warnings"] = g.stats.warnings;
   summary["clusters"] = est.basis.size();
+  summary["render_target"] = RenderTargetName(target);
+  summary["candidate_models"] = eo.candidate_models;
   summary["merge"] = {{"merges", merge.merges}, {"tried", merge.lines}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;

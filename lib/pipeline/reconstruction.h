@@ -30,6 +30,10 @@ struct ReconstructionJob {
   // renders the map in it. World is the format before "normal_map_space".
   NormalMapSpace normal_map_space = NormalMapSpace::kTangent;
   bool report = true;  // pictures and summary under out_dir/report
+  // "mitsuba" or "gltf": only models that renderer reproduces exactly
+  // (export/render_target.h), so that the export renders like the
+  // reconstruction; "" or "any": every candidate.
+  std::string render_target;
   // Anytime (seconds, 0 = none): the best material found within this wall
   // time from the start, always a complete folder. Gathering and one cluster
   // fit always run; then the clustering stops early, model selection and

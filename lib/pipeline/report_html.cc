@@ -64,7 +64,8 @@ void WriteReportHtml(const json& s, const std::string& dir) {
     page.Figures(figs);
     page.Paragraph(Msg(t.value("kind", std::string("view")), " ", t.value("view", std::string()), ": PSNR (sRGB) ",
                        Num(t.value("psnr_srgb", 0.0), "%.2f"), " dB, relative RMSE (linear) ",
-                       Num(t.value("rel_rmse_linear", 0.0), "%.4f")));
+                       Num(t.value("rel_rmse_linear", 0.0), "%.4f"), " (relight: ",
+                       t.value("relight", std::string("pixel centre")), ", as `svbrdf relight` and `svbrdf evaluate`)"));
   }
   page.Heading("Maps");
   std::vector<std::pair<std::string, std::string>> maps;

@@ -15,6 +15,21 @@ namespace svbrdf {
 
 namespace fs = std::filesystem;
 
+RelightOptions RelightOptions::PixelIntegrating() {
+  RelightOptions o;
+  o.samples_per_pixel = 8;
+  o.adaptive_max_rounds = 16;
+  return o;
+}
+
+std::string RelightOptions::SamplingDescription() const {
+  if (samples_per_pixel <= 1) return "pixel centre";
+  if (adaptive_max_rounds > 0)
+    return Msg("pixel-integrating: ", samples_per_pixel, " x ", samples_per_pixel, " jittered samples per round, up to ",
+               adaptive_max_rounds, " rounds until the sRGB standard error is below ", adaptive_tolerance);
+  return Msg("pixel-integrating: ", samples_per_pixel, " x ", samples_per_pixel, " jittered samples");
+}
+
 void RelightOptions::Check() const {
   if (samples_per_pixel < 1 || samples_per_pixel > 16)
     throw Error(Msg("relight: --spp must be in [1, 16], got ", samples_per_pixel));

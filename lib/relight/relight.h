@@ -51,6 +51,13 @@ struct RelightOptions {
   double envmap_scale = 1.0;   // multiplies the map's radiances
   int env_samples = 64;        // per pixel sample: this many environment + as many cosine samples
   void Check() const;
+  // What `relight` and `evaluate` use by default, and the reconstruction
+  // report too, so that one view gets one number: a photo's pixel is the
+  // integral over its area (cameras, Mitsuba, synth), so the pixel is
+  // integrated (8 x 8 jittered samples per round, up to 16 adaptive rounds).
+  static RelightOptions PixelIntegrating();
+  // One line saying how pixels are sampled (for reports).
+  std::string SamplingDescription() const;
 };
 
 struct RenderedView {

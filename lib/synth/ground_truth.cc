@@ -111,7 +111,7 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
   b.name = Msg("m", i);
   b.spec = ModelSpec::FromLabel(label.empty() ? e.label : label);
   b.params = b.spec.InitialParams();
-  if (b.spec.family != Family::kConductor) SetRgb(&b, "rd", e.diffuse);
+  if (b.spec.family != Family::kConductor && b.spec.family != Family::kGltf) SetRgb(&b, "rd", e.diffuse);
   switch (b.spec.family) {
     case Family::kLambert:
       break;
@@ -149,6 +149,10 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
     case Family::kCoated:
       SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.15);
       SetParam(&b, "ior", 1.5);
+      break;
+    case Family::kGltf:
+      SetRgb(&b, "base_color", e.diffuse);
+      SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.4);
       break;
   }
   return b;
