@@ -3,8 +3,9 @@
 # On the demo capture (synth --preset default), for the unrestricted fit and
 # `reconstruct --for mitsuba|gltf`: relight + evaluate against the held-out
 # photos, Mitsuba 3 renders of `export --format mitsuba` against the same
-# photos (scripts/check_mitsuba_export.py), and the glTF export's per-texel
-# fit error. Writes bench_results/export_fidelity.json; the table in
+# photos (scripts/check_mitsuba_export.py), Blender (Debian `blender`, Cycles)
+# renders of `export --format gltf` against them (scripts/check_blender_gltf.py),
+# and the glTF export's per-texel fit error. Writes bench_results/export_fidelity.json; the table in
 # bench_results/export_fidelity.md cites it.
 # Needs the Mitsuba 3 wheel: MI_PYTHON=/path/to/venv/bin/python (pip install mitsuba).
 # Usage: scripts/bench_export_fidelity.sh [work-dir]   (default out/export_fidelity)
@@ -22,6 +23,9 @@ for t in any mitsuba gltf; do
   "$CLI" relight "$W/mat_$t" "$W/capture/heldout/scene.json" --out "$W/relit_$t" > /dev/null
   "$CLI" evaluate "$W/relit_$t" "$W/capture/heldout/scene.json" > "$W/evaluate_$t.txt"
   "$CLI" export "$W/mat_$t" --format gltf --out "$W/gltf_$t" > /dev/null
+  if command -v blender > /dev/null; then
+    /usr/bin/python3 scripts/check_blender_gltf.py "$W/gltf_$t/model.gltf" "$W/capture/heldout/scene.json" --work "$W/blender_$t" --spp 64 > "$W/blender_$t.log"
+  fi
   if [ "$t" != gltf ]; then
     "$PY" scripts/check_mitsuba_export.py "$W/mat_$t" "$W/capture/heldout/scene.json" --work "$W/mitsuba_$t" --spp 64 > "$W/mitsuba_$t.log"
   fi
@@ -45,6 +49,9 @@ for t in ("any", "mitsuba", "gltf"):
         r["mitsuba_vs_relight_psnr"] = a["material_mask"]["mean_psnr_srgb"]
         r["mitsuba_version"] = a["mitsuba"]
         r["exact_forms"] = [b["exact"] for b in a["export_report"]["basis"]]
+    if os.path.exists(f"{w}/blender_{t}/blender_agreement.json"):
+        b = json.load(open(f"{w}/blender_{t}/blender_agreement.json"))
+        r["blender_gltf_vs_photos_psnr"] = b["mean_psnr_srgb"]; r["blender_gltf_vs_photos_min"] = b["min_psnr_srgb"]
     out["runs"][t] = r
 os.makedirs("bench_results", exist_ok=True)
 json.dump(out, open("bench_results/export_fidelity.json", "w"), indent=2)

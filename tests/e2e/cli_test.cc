@@ -8,6 +8,8 @@
 #include <fstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -123,6 +125,31 @@ TEST(Cli, ExportHelpAndBadInputLeaveNoFolder) {
   EXPECT_NE(f.code, 0);
   EXPECT_NE(f.output.find("obj"), std::string::npos) << f.output;
   for (const auto& e : fs::directory_iterator(dir)) ADD_FAILURE() << "left behind: " << e.path();
+  fs::remove_all(dir);
+}
+
+// reconstruct --for mitsuba fits only models Mitsuba renders exactly: every
+// basis material of the export maps exactly and the export does not warn.
+TEST(Cli, ForMitsubaFitsOnlyExactModels) {
+  const std::string dir = Scratch("for");
+  ASSERT_EQ(RunCli("synth --preset tiny --out " + dir + "/cap").code, 0);
+  const std::string scene = dir + "/cap/scene.json";
+  const Result r = RunCli("reconstruct " + scene + " --out " + dir + "/mat --for mitsuba --threads 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const Result x = RunCli("export " + dir + "/mat --format mitsuba --out " + dir + "/xml");
+  ASSERT_EQ(x.code, 0) << x.output;
+  EXPECT_EQ(x.output.find("no exact Mitsuba form"), std::string::npos) << x.output;
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(dir + "/xml/export_report.json"));
+  ASSERT_FALSE(report["basis"].empty());
+  for (const auto& b : report["basis"]) EXPECT_TRUE(b["exact"].get<bool>()) << b.dump();
+  const nlohmann::json summary = nlohmann::json::parse(std::ifstream(dir + "/mat/report/summary.json"));
+  EXPECT_EQ(summary["render_target"], "mitsuba");
+  // A forced model without an exact form is refused, naming it; nothing is written.
+  const Result bad = RunCli("reconstruct " + scene + " --out " + dir + "/bad --for mitsuba --model lafortune-1");
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.output.find("lafortune-1"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(dir + "/bad"));
+  EXPECT_NE(RunCli("reconstruct " + scene + " --out " + dir + "/bad --for blender").code, 0);
   fs::remove_all(dir);
 }
 
