@@ -38,8 +38,8 @@ struct ChartAtlasOptions {
   // Charts below this surface area (in texels of `texel_size`) are merged
   // into a neighbour (steps 1 and 3). Every chart carries a ring of border
   // texels that measure no surface of their own (about its perimeter in
-  // texels); on the 75 k-triangle bunny scan, 274 charts (69 of one
-  // triangle) made half of the 22 k texels border texels. 0 = no merging.
+  // texels); on a scan (the bunny) unmerged small charts, many of one
+  // triangle, make border texels a large share of all texels. 0 = no merging.
   double min_chart_texels = 64;
   int gutter = 4;             // empty texels between charts (>= 4 keeps BuildAtlas(cover_small, dilate 1) claims apart)
   void Check() const;         // throws Error for out-of-range values

@@ -143,7 +143,7 @@ BoardDetection DetectBoard(const Image& image, const BoardSpec& board) {
       det.why = Msg("only ", pts.size(), " ChArUco corners found (need 6)");
       return det;
     }
-    // interpolateCornersCharuco's own refinement leaves ~0.5 px bias; refine
+    // interpolateCornersCharuco's own refinement leaves a sub-pixel bias; refine
     // again with a window small enough to stay clear of the markers (their
     // edges are 0.15 squares from the corner for the default marker size).
     double spacing = 1e9;

@@ -69,8 +69,8 @@ BoardTexture DrawBoard(const BoardSpec& board, int pixels_per_square);
 
 // The ChArUco board of `synth-raw` and its tests: 11x8 squares of 3.5 cm,
 // 2.6 cm markers (38.5 x 28 cm, A3). 70 inner corners: with the 6x5 board of
-// 6 cm (20 corners) a dozen views left the principal point uncertain by
-// 0.4-0.6 px RMS at 0.05 px detection noise (simulated), against 0.2 px here.
+// 6 cm (20 corners) a dozen views leave the principal point far less
+// certain than here (simulated detection noise).
 BoardSpec DefaultRawBoard();
 
 // 8-bit grey tone mapping used for detection and pictures: scaled so that the

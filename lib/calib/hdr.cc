@@ -241,10 +241,10 @@ HdrResult MergeDebevecOpenCv(const std::vector<Image>& shots, const std::vector<
     times.push_back(float(seconds[k]));
   }
   cv::Mat response, hdr;
-  // Response by Debevec-Malik (200 grid samples: 70, OpenCV's default, left
-  // 1.8 % RMS non-linearity on 6 brackets); the merge by Robertson's weighting
-  // with that response: OpenCV's MergeDebevec on the same response was 13-24 %
-  // off linear in tests/calib_test.cc (see also opencv/opencv#26613).
+  // Response by Debevec-Malik (200 grid samples: OpenCV's default of 70
+  // leaves a clear non-linearity); the merge by Robertson's weighting with
+  // that response: OpenCV's MergeDebevec on the same response is far off
+  // linear in tests/calib_test.cc (see also opencv/opencv#26613).
   cv::createCalibrateDebevec(200)->process(mats, response, times);
   cv::createMergeRobertson()->process(mats, hdr, times, response);
   cv::Mat rgb;

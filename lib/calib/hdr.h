@@ -7,9 +7,9 @@
 // a pixel saturated in every shot is flagged. Non-linear 8-bit input (JPEG):
 // the camera response is recovered first (Debevec-Malik over all pixels,
 // then a degree-6 polynomial after Mitsunaga-Nayar), then the shots merged
-// in the log domain. On 18 synthetic bracket sets this is 0.4-0.85 % RMS
-// off linear; OpenCV's CalibrateDebevec + MergeRobertson 0.7-4.6 %
-// (tests/calib_test.cc).
+// in the log domain. On synthetic bracket sets this comes closer to linear
+// than OpenCV's CalibrateDebevec + MergeRobertson (tests/calib_test.cc;
+// bench_results/front_half.md).
 #pragma once
 #include <array>
 #include <vector>

@@ -79,10 +79,10 @@ bool RefitRound(Clustering& cl, const WeightModel& m, const BasisRefitOptions& r
   // Judged on interior texels: a texel whose own and whose neighbours'
   // weights of k are all >= kInterior. Near a border the held-out samples
   // carry some of the neighbouring material's colour, as the training ones
-  // do, and reward a material that absorbed it: on the Mitsuba bunny the
-  // plastic's refit raised the held-out error of the texels it dominates by
-  // 3.9 % and lowered that of its interior texels by 5.5 %; on the default
-  // capture +4.3 % and -22.9 %.
+  // do, and reward a material that absorbed it: on the Mitsuba bunny and
+  // the default capture a refit raises the held-out error of all the texels
+  // its material dominates while it lowers that of its interior texels
+  // (bench_results/independent.md).
   constexpr double kInterior = 0.99;
   std::vector<std::vector<int>> interior(K);
   for (int t = 0; t < s.num_texels; ++t)

@@ -4,11 +4,11 @@
 //
 // Why: each cluster's material is fitted to its texels' samples as if every
 // texel were made of it alone, but texels in a blend zone (a scan painted
-// with soft borders: 4034 of the Mitsuba bunny's 11156 sampled texels) mix
-// in their neighbours' materials, and the fit absorbs them: the matte paint
-// of the Mitsuba sphere came out (+2.3, -0.8, -1.4) % off in (r, g, b)
-// while its coated plastic matched to 0.1 %; relit with the true paint, the
-// reconstruction scored 51.45 dB held-out instead of 50.83.
+// with soft borders: a large share of the Mitsuba bunny's sampled texels)
+// mix in their neighbours' materials, and the fit absorbs them: the matte
+// paint of the Mitsuba sphere came out off in colour while its coated
+// plastic matched, and the reconstruction relit better with only the true
+// paint swapped in (bench_results/independent.md).
 #pragma once
 #include <vector>
 
@@ -29,13 +29,12 @@ namespace svbrdf {
 // Not on all texels: the held-out samples are lookups of pixels that
 // integrate the surface around the texel, so near a material border they
 // carry some of the neighbour's colour, in the held-out samples as in the
-// training ones, and reward a basis that absorbed it. Measured on the
-// Mitsuba bunny (256-spp photos): the plastic's refit raised the held-out
-// error of the texels it dominates by 3.9 % and lowered its interior
-// texels' by 5.5 %; the refit moved the paint from (0.1014, 0.4150, 0.1370)
-// to (0.1000, 0.4187, 0.1395) (truth 0.10, 0.42, 0.14) and the held-out
-// photos relit 47.75 -> 48.38 dB with all three refitted, while the
-// held-out samples' RMSE over all texels rose 0.5 %.
+// training ones, and reward a basis that absorbed it. On the Mitsuba bunny
+// the plastic's refit raised the held-out error of the texels it dominates
+// and lowered its interior texels'; with all three materials refitted the
+// paint came closer to the truth and the held-out photos relit better,
+// while the held-out samples' error over all texels rose
+// (bench_results/independent.md).
 //
 // Rounds alternate: weights from the current basis, basis from those
 // weights; they stop at the first round not kept (undone), at one that

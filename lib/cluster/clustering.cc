@@ -45,12 +45,13 @@ std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
   // more training samples) alone when they hold most of the cluster's
   // training samples. Texels seen once or twice sit where few photos reach
   // (grazing views, region borders) and bias a fit (mixed_tiny: the copper's
-  // F0 6-8 % low with them, 3 % without). With few photos they are most of
-  // the data and all texels take part (default preset at 8 photos: 27 dB
-  // held-out on the well-seen alone, 44 dB with all). Not while splitting:
-  // the split search's measure scores every texel with training samples,
-  // and fits that never saw some of them extrapolate there (12 photos: the
-  // one-cluster fit read 0.28 held-out RMSE and the search kept 1 cluster).
+  // F0 too low with them). With few photos they are most of the data and
+  // all texels take part (default preset at 8 photos: the well-seen alone
+  // relight the held-out views far worse). Not while splitting: the split
+  // search's measure scores every texel with training samples, and fits
+  // that never saw some of them extrapolate there (at 12 photos the
+  // one-cluster fit read a large held-out error and the search kept 1
+  // cluster).
   int64_t all_train = 0, well_train = 0;
   for (int t = 0; t < nt_; ++t) {
     if (!usable_[t] || (k >= 0 && assign_[t] != k)) continue;

@@ -114,8 +114,9 @@ class Clustering {
   // held-out photos saw get their label from their own samples (pooled
   // with their neighbours' as in Assign) instead of from their neighbours'
   // labels alone, and texels no photo saw are filled again from those.
-  // Seen with 8 photos: 30 such texels at a region border kept the filled
-  // label of the other region, 74 % of the worst held-out view's error.
+  // Seen with 8 photos: a few such texels at a region border kept the
+  // filled label of the other region and made most of the worst held-out
+  // view's error.
   void LabelUnseenByAllSamples();
 
   // Whether cluster k gained or lost texels in the last Assign().

@@ -101,8 +101,8 @@ void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const Recon
   // they take those of the known texel nearest on the surface (its own
   // chart's or across the seam), when one is within two texels. The
   // texture neighbours of a tip texel can be several texels away in
-  // another material (measured on the tiny no-UV sphere: weights off by up
-  // to 0.66 at chart tips, a streak in one held-out highlight).
+  // another material (on the tiny no-UV sphere: weights far off at chart
+  // tips, a streak in one held-out highlight).
   std::vector<char> border(nt);
   for (int t = 0; t < nt; ++t) border[t] = !known[t] && !atlas.texels[t].interior;
   if (std::count(border.begin(), border.end(), 1) > 0) copy_from(NearestKnownTexels(atlas, known, border, 2.0));
@@ -111,8 +111,8 @@ void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const Recon
   // texel (generated atlases: a sliver or folded triangle alone in its
   // chart, with no known texel within two texels either): they take the
   // weights of the texel nearest on the surface, however far, instead of
-  // none (zero weights relight black: 1379 texels of the small synthetic
-  // bunny scan did, 32.7 instead of 36.1 dB held-out).
+  // none (zero weights relight black, as such texels of the small
+  // synthetic bunny scan did).
   std::vector<char> unreached(nt);
   for (int t = 0; t < nt; ++t) unreached[t] = !known[t];
   if (std::count(unreached.begin(), unreached.end(), 1) > 0) copy_from(NearestKnownTexels(atlas, known, unreached));

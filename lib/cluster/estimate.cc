@@ -83,8 +83,8 @@ SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const R
   log(Msg("refit of ", cl.K(), " basis materials on the given samples"));
   // No basis refit on the weights here: the normal stage's rounds refit in
   // the refined normals' frames and polish the basis with the tilts; a refit
-  // on the weights inside them drifted (default_bump: the final photo check
-  // 8.8 -> 202.7, 41.68 -> 38.75 dB held-out).
+  // on the weights inside them drifts (default_bump: the final photo check
+  // and the held-out views get worse; bench_results/independent.md).
   FinishEstimate(cl, atlas, 0.0, false, log, &est);
   return est;
 }
@@ -99,8 +99,8 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   const SampleSet& samples = cl.samples();
   cl.stage = "model selection";
   cl.well_seen_fits_ = true;
-  // Selection costs 0.7-1.3x the search (measured), so about 1.3x the
-  // search's time per cluster is predicted for the first cluster chosen.
+  // Selection costs about as much as the search, sometimes more, so 1.3x
+  // the search's time per cluster is predicted for the first cluster chosen.
   SelectModels(cl, &est, log, 1.3 * search_seconds / std::max(1, cl.K()));
   if (o.SecondsLeft() > 0) {
     cl.stage = "final refinement";
@@ -114,9 +114,9 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   // 4b. The basis refitted given the weights (basis_refit.h).
   // Only where every cluster's model explains its samples: the refit
   // subtracts the other materials' predicted shares, which model error
-  // (unmodelled bumps, interreflection) makes wrong. Measured on
-  // default_bump (two clusters poorly explained by the mesh normals): the
-  // refit kept at this stage led the normal stage to 41.68 -> 38.72 dB.
+  // (unmodelled bumps, interreflection) makes wrong: on default_bump (two
+  // clusters poorly explained by the mesh normals) a refit kept at this
+  // stage leads the normal stage astray.
   // The quality is a full weight solve: measured here once, and again in
   // step 6 only when the refit changed the basis (nothing else below changes
   // what it measures).

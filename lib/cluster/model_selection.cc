@@ -172,8 +172,8 @@ size_t ChooseModelOnBoth(const std::vector<ModelCandidate>& folds, const std::ve
   // errors come from screening fits, the held-out ones from the full fits
   // that are kept. The held-out photos do not veto a model the folds found
   // clearly better: with few photos they may not see what tells the models
-  // apart (the default preset at 8 photos: a Cook-Torrance 29 % below
-  // lambert out of fold, a tie on the held-out photos).
+  // apart (the default preset at 8 photos: a Cook-Torrance clearly below
+  // lambert out of fold ties with it on the held-out photos).
   auto preference = [&](size_t j) {
     auto k = PreferenceKey(folds[j], incumbent);
     std::get<3>(k) = 0;
@@ -242,12 +242,10 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     // cluster's samples (photo folds, photo_folds.h): every photo is
     // validation once, so the choice does not hang on what the held-out
     // photos happened to see. The fold fits are screening fits (600
-    // samples, warm-started from the finalist's fit). Measured: default
-    // preset at 8 / 24 photos the same choices and PSNR as with 3000
-    // samples, at 0.5 s less CPU; near-ties do move with the count (tiny,
-    // 20 photos: 50.83 dB at 600, 53.44 at 2000, 47.45 at 3000; no
-    // cross-validation 53.44, but 40.69 instead of 44.09 dB at 8 photos on
-    // the default preset and 32.71 instead of 34.13 on mixed_tiny).
+    // samples, warm-started from the finalist's fit): larger subsets give
+    // the same choices at more CPU, and only near-ties move with the count.
+    // Without the cross-validation the held-out photos alone choose worse
+    // models with few photos (default preset at 8 photos, mixed_tiny).
     // The basis itself is the fit on the training samples.
     std::vector<int64_t> all = cl.Ids(k, false), held_k = cl.Ids(k, true);
     all.insert(all.end(), held_k.begin(), held_k.end());
@@ -259,9 +257,8 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       // The cluster's own model was screened from its split-stage material
       // (fitted on every texel, sparse ones included): multi-start around
       // that screening fit (which is among the starts, so the training cost
-      // can only improve). From the warm start alone mixed_tiny's copper
-      // stayed in a local optimum with F0 6-8 % low (3 % with the
-      // multi-start; the same PSNR on the default and standard presets).
+      // can only improve). From the warm start alone a conductor (mixed_tiny's
+      // copper) can stay in a local optimum with its F0 too low.
       // The other finalists were screened from the models' own starts.
       const bool warm = t.spec == cl.basis()[k].spec;
       try {
@@ -289,8 +286,9 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     // `model_min_z` standard errors (paired over held-out samples); fits at
     // their bounds only when clearly better (ChooseModel).
     // Ties out of fold are broken with the held-out photos too
-    // (ChooseModelOnBoth): on the torus the folds preferred coated-beckmann
-    // by 1.3 %, the held-out photos coated-ggx by 7 % (the truth: GGX).
+    // (ChooseModelOnBoth): on the torus the folds narrowly preferred
+    // coated-beckmann, the held-out photos clearly coated-ggx (the truth:
+    // GGX).
     std::vector<ModelCandidate> fold_candidates, held_candidates;
     for (size_t j : usable) {
       fold_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});

@@ -47,8 +47,8 @@ bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params);
 // estimate) the choice prefers, in this order: a fit not at its bounds (a
 // model that needs a bound to reach the data extrapolates where the data
 // end: seen on the standard capture, a Cook-Torrance with ior pinned at 3
-// tied with the clustering's Lafortune lobe and lost 7 dB on the worst
-// held-out view), fewer parameters, the `incumbent` model (the clustering's:
+// tied with the clustering's Lafortune lobe and relit the worst held-out
+// view far worse), fewer parameters, the `incumbent` model (the clustering's:
 // its clusters were made with it), the lower RMSE.
 size_t ChooseModel(const std::vector<ModelCandidate>& candidates, const ModelSpec& incumbent, double margin,
                    double min_z);

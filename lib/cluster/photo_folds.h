@@ -2,8 +2,8 @@
 // photos, the held-out photos may miss what tells two models apart (seen on
 // the default preset at 8 photos: the two held-out photos saw no highlight
 // of the glossy red material, Lambert tied with Cook-Torrance and won by
-// parsimony, and the relit views lost 8 dB; another hold-out seed kept
-// Cook-Torrance and reached 45.4 dB). Every photo is validation once: each
+// parsimony, and the relit views lost much of their accuracy; another
+// hold-out seed kept Cook-Torrance). Every photo is validation once: each
 // sample gets a prediction from a fit on the other photos only.
 #pragma once
 #include <cstdint>

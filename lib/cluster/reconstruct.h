@@ -99,11 +99,12 @@ struct ReconstructOptions {
   // must be at most 1 - min_split_coherence. Halves interleaved texel by
   // texel are texels that both materials explain about equally (model error
   // specialised to the directions each texel saw, e.g. the copper of the
-  // Mitsuba sphere split 4202/2596 at coherence 0.49-0.57 after the
-  // refinement's neighbour pooling), not two materials; such a split is
-  // undone without looking a split further. Clean material splits measured
-  // 0.97-0.99; a stripe w texels wide inside another region scores about
-  // 1 - 0.75/w, so 0.7 keeps regions >= 3 texels wide. 0 = off.
+  // Mitsuba sphere split texel by texel after the refinement's neighbour
+  // pooling), not two materials; such a split is undone without looking a
+  // split further. Clean material splits score close to 1
+  // (docs/method/reconstruction.md); a stripe w texels wide inside another
+  // region scores about 1 - 0.75/w, so 0.7 keeps regions >= 3 texels wide.
+  // 0 = off.
   double min_split_coherence = 0.7;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
@@ -118,7 +119,7 @@ struct ReconstructOptions {
   // The final weights (step 4) try every radius here (and scalar or per
   // channel weights) and keep the one with the lowest held-out error: blend
   // zones are as wide as the object makes them, in texels as the atlas
-  // makes them (default preset: held-out RMSE 0.0045 at radius 2, 0.0020 at 8).
+  // makes them (on the default preset the widest radius predicts best).
   std::vector<int> weight_radii = {2, 4, 8};
   std::vector<double> weight_unit_sum_samples = {0.0, 1.0, 1000.0};
   // Step 4b (basis_refit.h): every basis material refitted on the samples
@@ -129,9 +130,10 @@ struct ReconstructOptions {
   // Per texel, to take part in fits and in the split search's held-out
   // measure. One: cluster fits pool all their texels, and a texel's weights
   // have priors (its cluster's material, its neighbours). With 8 photos most
-  // texels have 1-2 training samples (default preset: 1856 of 16384 had 3 or
-  // more, and 8 of those had held-out samples), and a bar of 3 left the
-  // split search blind: it saw 8 texels and kept 2 materials of 3.
+  // texels have 1-2 training samples (default preset: only a small share
+  // have 3 or more, and hardly any of those held-out samples), and a bar of
+  // 3 leaves the split search blind: it sees a handful of texels and keeps
+  // 2 materials of 3.
   int min_fit_samples = 1;
   // Cauchy loss of cluster fits: < 0 = automatic (3 robust sigmas of the
   // cluster's residuals), 0 = plain least squares, > 0 = this scale.
@@ -214,8 +216,8 @@ struct SvbrdfEstimate {
 // whose pixel footprint is wholly on the lit surface (ReconstructionJob::
 // fit_max_unlit_share): the others mix in another surface's or a shadow's
 // radiance, which no material explains, yet the split search needs every
-// texel's samples to keep its material count (dropping them before it gave
-// the Mitsuba bunny 4-5 materials at two of three hold-out seeds).
+// texel's samples to keep its material count (dropping them before it
+// gives the Mitsuba bunny too many materials; bench_results/independent.md).
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options,
                               const SampleSet* fit_samples = nullptr);
 

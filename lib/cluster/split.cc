@@ -108,19 +108,18 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
   const long usable_texels = std::count(cl.usable().begin(), cl.usable().end(), char(1));
   const long min_half = std::max<long>(2, long(cl.options().min_cluster_fraction * usable_texels));
   // Only with all five features: the subsets (variants 1, 2) are tried when
-  // a split did not help, and a second peeled candidate per cluster cost the
-  // mixed preset 0.7 s of split search (at a 10 s budget its normal stage
-  // then had no time left).
+  // a split did not help, and a second peeled candidate per cluster costs
+  // split-search time that a tight time budget then lacks for the normal
+  // stage (mixed preset).
   if (variant == 0 && std::min<long>(ones, long(T) - ones) < min_half) {
     // One half too small: either the cluster is one material whose extreme
     // texels (few samples, region borders) took a centroid, or extreme texels
     // hid two materials from the whitening and the 2-means. Peel the small
     // half off and split the rest again: one material's rest yields another
-    // small half, two materials' rest two large ones. Measured (halves
-    // before -> after peeling): the default capture's pure clusters
-    // 151 -> 144, 256 -> 51, 276 -> 219 texels (still too small, at most
-    // 304 of 6634); the Mitsuba armadillo scan's metal + red cluster with
-    // footprint sub-samples 246 -> 2213 of 5777 texels (min 270).
+    // small half, two materials' rest two large ones: after peeling, the
+    // default capture's pure clusters still give halves too small to split,
+    // and the Mitsuba armadillo scan's metal + red cluster (with footprint
+    // sub-samples) two large ones.
     std::vector<long> rest;
     const int big = ones * 2 > long(T) ? 1 : 0;
     for (size_t j = 0; j < T; ++j)
@@ -132,9 +131,9 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
     const std::vector<int> r = TwoMeans(Zr);
     const long r_ones = std::count(r.begin(), r.end(), 1);
     // The peeled split is a second guess: its halves must be clearly, not
-    // just barely, large enough (the tiny preset with 5 materials: a piece of
-    // 224 of one material's 660 texels, against a minimum of at most 122,
-    // became a sixth material).
+    // just barely, large enough (the tiny preset with 5 materials: a piece
+    // of one material, above the minimum but below twice it, became a sixth
+    // material).
     constexpr long kPeeledMinHalfFactor = 2;
     if (std::min<long>(r_ones, long(rest.size()) - r_ones) >= kPeeledMinHalfFactor * min_half) {
       // Every texel, the peeled ones too, to the nearer of the rest's groups.

@@ -34,8 +34,8 @@ double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b
 // whose held-out samples a new glossy material mispredicts (a misassigned
 // texel, a highlight the neighbour pooling put on the wrong side of a
 // border) must not decide a split. Seen on mixed_tiny: one copper texel's
-// held-out error (29.7) outweighed the gain of the 4000 others, and the
-// right 3-material split read 247 % worse.
+// held-out error outweighed the gain of all the others, and the right
+// 3-material split read as far worse.
 double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim = 0.02);
 
 }  // namespace svbrdf

@@ -55,7 +55,7 @@ double PeakMemoryMB();  // VmHWM of this process, from /proc/self/status
 double ProcessCpuSeconds();
 // Wall seconds since this process started (from /proc/self/stat and
 // /proc/uptime, 10 ms resolution; 0 where they cannot be read): a time
-// budget counts the program's start-up (shared libraries, about 0.2 s) too.
+// budget counts the program's start-up (loading shared libraries) too.
 double ProcessAgeSeconds();
 
 }  // namespace svbrdf

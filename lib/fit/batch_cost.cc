@@ -1,8 +1,8 @@
 // Every fit's time is spent in the Jet arithmetic of this file's cost
 // functions. GCC leaves Eigen's fixed-size vector loops of Jets with 5, 7 or
 // 8 derivatives out of line (a call per Jet operation); forcing Eigen's
-// strong inlining here halves the time of a coated, Cook-Torrance or
-// conductor fit (tests/bench/fit_bench: coated-ggx 65 -> 32 ms, one thread).
+// strong inlining here removes those calls from every coated, Cook-Torrance
+// or conductor fit (tests/bench/fit_bench; bench_results/per_stage.md).
 // Only inlining changes: the results are bitwise the same.
 #define EIGEN_STRONG_INLINE inline __attribute__((always_inline))
 #include "fit/batch_cost.h"

@@ -84,11 +84,12 @@ Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const 
   // With bounds, Ceres follows every trust-region step by a projected Armijo
   // line search; its default cubic interpolation evaluates the gradient (a
   // whole Jacobian) at the trial point, which the minimizer then evaluates
-  // again. Quadratic interpolation needs the cost alone there (measured: the
-  // line search was 46 % of all fit time); the trial point's second
-  // evaluation is remembered (batch_cost.cc). (One line-search step instead
-  // of up to 20 saved another ~10 % but moved fits: the forced 2-cluster
-  // e2e capture lost 3.8 dB.)
+  // again. Quadratic interpolation needs the cost alone there (the line
+  // search was a large share of all fit time); the trial point's second
+  // evaluation is remembered (batch_cost.cc).
+  // Capping the line search at one step would save a little more but moves
+  // fits, and the forced 2-cluster e2e capture then relights worse
+  // (bench_results/per_stage.md).
   so.line_search_interpolation_type = ceres::QUADRATIC;
   ceres::Solve(so, &problem, &solution.summary);
   return solution;

@@ -15,7 +15,7 @@ namespace svbrdf {
 struct FitOptions {
   int max_iterations = 60;
   // Relative cost change that ends a solve: 1e-6 of the cost is far below
-  // the noise of any photo; 1e-7 added up to 3x the iterations (measured).
+  // the noise of any photo; a tighter tolerance only adds iterations.
   double function_tolerance = 1e-6;
   // Robust loss: 0 = plain squared error; > 0 = Cauchy loss with this scale
   // (in residual units) against outliers (misregistration, interreflection).

@@ -30,15 +30,15 @@ struct GatherOptions {
   // whose texel is `texel_footprint` pixel footprints at the median view
   // (1 = one texel per pixel), at most `max_atlas_size` texels a side.
   // 2 (a texel covers about 2x2 pixels of the median view) gives each texel
-  // ~4x the samples of 1: on the tiny capture without UVs 45.3 dB held-out
-  // against 41.7 dB at 1 and 43.4 dB at 3 (with UVs: 46.1 dB).
+  // ~4x the samples of 1: on captures without UVs it relights the held-out
+  // views better than both 1 and 3.
   double texel_footprint = 2.0;
   int max_atlas_size = 1024;
   double min_cos = 0.15;        // grazing limit for view and light directions (cos of the angle)
   // Footprint normals: a pixel integrates the surface over its footprint, so
-  // where the normal turns within a pixel (scanned meshes: ~5 deg per pixel
-  // at the median, 20 deg at the 90th percentile on the bunny scan) the
-  // texel-centre normal does not describe the measured value. Each sample's
+  // where the normal turns within a pixel (scanned meshes, such as the
+  // bunny scan) the texel-centre normal does not describe the measured
+  // value. Each sample's
   // frame then uses the mean shading normal of n x n rays per pixel of the
   // bilinear lookup (weighted like the lookup); its length < 1 (the cosine
   // of a spread of normals averages to a shorter normal) scales `geom`. Up
@@ -47,33 +47,26 @@ struct GatherOptions {
   // occluded. 0 = off (the texel-centre normal). Off by default: it assumes
   // the camera integrates each pixel (real cameras, Mitsuba's box filter);
   // on photos rendered at the pixel centre (this project's synth at spp 1)
-  // it cost 3.3 dB on the bunny-scan regression, and on the Mitsuba bunny
-  // it gained only 0.1 dB (median sample error vs truth 1.6 % -> 0.9 %).
+  // it costs the bunny-scan regression, and on the Mitsuba bunny it gains
+  // little (bench_results/independent.md).
   int footprint_rays = 0;
   // Footprint sub-samples (SampleSet::footprint): n x n rays through each
   // of the four pixels of a sample's bilinear lookup give each pixel's mean
   // shading normal, and predictions average the BRDF over the four (lookup-
   // weighted), as the photo does. Where the normal turns within a pixel (the
-  // bunny scan) the texel-centre normal mispredicts highlights: the true
-  // material's squared error over the Mitsuba bunny's samples is 462 at the
-  // centre, 21 over the lookup's rays (sample_oracle_bench ORACLE_EXACT).
+  // bunny scan) the texel-centre normal mispredicts highlights; the true
+  // material predicts a scan's samples far better averaged over the
+  // lookup's rays than at the centre (tests/bench/sample_oracle_bench,
+  // ORACLE_EXACT).
   // 0 = off. Cost: 4 n^2 camera rays per kept sample, 48 bytes per sample,
   // and 4 model evaluations per sample in every fit and prediction: they
   // are kept only where the normal turns within the pixels, when the median
   // over samples of the largest pixel normal's tilt is at least
-  // `footprint_min_tilt_deg`. Measured (median tilt; held-out dB without ->
-  // with): Mitsuba bunny scan 5.3 deg, 41.93 -> 43.43 (256 spp photos:
-  // 41.90 -> 45.45); Mitsuba torus 2.3 deg, 36.55 -> 36.62; Mitsuba sphere
-  // 0.95 deg, 49.23 -> 49.18 at twice the CPU; default 0.88 deg, 45.46 ->
-  // 45.46 at twice the CPU; mixed 0.38 deg, 45.61 -> 45.40. Synthetic
+  // `footprint_min_tilt_deg`. Scans (Mitsuba bunny, armadillo) gain
+  // held-out accuracy; smooth meshes (sphere, default, mixed) gain nothing
+  // and would pay twice the CPU (bench_results/independent.md). Synthetic
   // photos sample the pixel centre (n = 1 would be exact there), Mitsuba's
-  // and cameras integrate the pixel (n >= 2). On the Mitsuba armadillo scan
-  // (13.2 deg) the true material's sample error falls 774 -> 178 (4x4 rays:
-  // 29) and the reconstruction gains 3.5 dB at seeds 1-3 (34.18 / 34.30 /
-  // 34.13 -> 37.68 / 37.92 / 37.63 dB); the Mitsuba bunny at seeds 1-3
-  // 42.84 / 43.01 / 41.92 -> 43.90 / 43.91 / 42.32 dB. It was opt-in while
-  // the armadillo's seed-1 split search stopped at 2 materials (21.42 dB),
-  // until SplitSides peeled extreme texels off its features (cluster/split.cc).
+  // and cameras integrate the pixel (n >= 2).
   int footprint_subsamples = 2;
   double footprint_min_tilt_deg = 2.0;
   double max_foreign_share = 0.25;
@@ -94,9 +87,8 @@ struct GatherOptions {
   // `max_probe_foreign_share` reject on them. 0 = off (no extra rays).
   // Cost: 4 n^2 camera rays and up to as many shadow rays per kept sample.
   // Default 2: the reconstruction leaves partly foreign or unlit samples
-  // out of its fits (ReconstructionJob::fit_max_unlit_share). Cost, whole
-  // reconstruct on the idle 2-core machine, probe off -> on: standard
-  // capture 3.97 -> 4.34 s, Mitsuba bunny (32 spp) 14.2 -> 14.5 s.
+  // out of its fits (ReconstructionJob::fit_max_unlit_share). Its share of
+  // a whole reconstruct's time: bench_results/independent.md.
   int probe_rays = 2;
   // Lookup contrast: (max - min) / (max + min + 2 noise_floor) of the mean
   // channel over the four pixels of a sample's bilinear lookup. A steep
@@ -107,12 +99,11 @@ struct GatherOptions {
   // `contrast_min_turn_deg` of the mesh normal's turn (see
   // max_footprint_turn_deg; 0 = everywhere): where the mesh is flat at the
   // pixel's scale the change is the material's or a normal map's own signal
-  // (bump captures lose 1.7 dB without that condition). 1 = off (the
-  // contrast is < 1), the default: 0.3 gains the Mitsuba bunny scan
-  // 1.2-1.7 dB over three seeds but splits the tiny preset's five materials
-  // into four (38.9 instead of 47.5 dB held-out) and, at a 6 deg condition,
-  // costs the bunny 2.4 dB (bench_results/independent.md, stop 18 "sample
-  // quality").
+  // (bump captures lose held-out accuracy without that condition). 1 = off
+  // (the contrast is < 1), the default: a threshold that helps the Mitsuba
+  // bunny scan merges two of the tiny preset's five materials, and a
+  // stricter turn condition costs the bunny (bench_results/independent.md,
+  // "sample quality on the bunny").
   double max_lookup_contrast = 1.0;
   double contrast_min_turn_deg = 3.0;
   double max_unlit_share = 1.0;          // reject above this unlit share of the footprint (1 = keep all)
@@ -124,15 +115,13 @@ struct GatherOptions {
   // lookups at chart borders. They take no samples (false, the default):
   // their weights come from the neighbour fill (cluster/confidence.cc:
   // their own chart's texels, across the seam when the chart has none).
-  // On the Mitsuba bunny scan (bench_results/independent.md) their samples
-  // were half of all samples and carried 76 % of the squared disagreement
-  // between the samples and the true material (chart borders follow creases,
-  // where the normal turns within a pixel): without them 35.6 -> 38.4 dB
-  // held-out and 20 -> 7 s CPU. They used to be needed on the small
-  // synthetic bunny of e2e_reconstruct_test (70 % border texels) only
-  // because charts of one sliver triangle then had no texel with a value at
-  // all and relit black (32.7 dB instead of 36.1); the seam fill and chart
-  // merging fixed that (38.2 dB). true = sample them too (as before).
+  // On a scan their samples are a large share of all samples and carry most
+  // of the disagreement between the samples and the true material (chart
+  // borders follow creases, where the normal turns within a pixel): leaving
+  // them out relights the held-out views better at a fraction of the CPU
+  // (bench_results/independent.md). Charts of one sliver triangle, whose
+  // texels are all border texels, take their weights from the seam fill
+  // and chart merging instead. true = sample them too.
   bool border_texel_samples = false;
   // ... except those whose clamped point lies within this many texels of the
   // texel centre (they still measure the surface under the texel; 0.5 keeps

@@ -2,7 +2,7 @@
 // maps use), basis materials (model + named parameters), one RGB weight map per
 // basis material, an optional normal map (world or tangent space:
 // io/normal_map_space.h), a confidence map and an optional material-id map.
-// See README "Material folder".
+// See docs/reference/formats.md ("material.json: a result").
 #pragma once
 #include <nlohmann/json.hpp>
 #include <string>

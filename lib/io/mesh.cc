@@ -133,9 +133,9 @@ void Mesh::ComputeNormals(NormalWeighting weighting) {
   // angle at the vertex. This is what Mitsuba 3 (Mesh::recompute_vertex_normals,
   // run by its OBJ and PLY loaders for files without normals) and Blender
   // compute, so a capture rendered by them from a mesh without normals is
-  // relit with the normals it was shaded with. Area weighting, used before,
-  // differs by 0.47 deg median, 7.2 deg max on the bunny scan, which cost a
-  // perfect prediction 1.2 dB on Mitsuba's photos (bench_results/independent.md).
+  // relit with the normals it was shaded with. Area weighting differs on a
+  // scan (the bunny), enough to cost even a perfect prediction on Mitsuba's
+  // photos (bench_results/independent.md).
   // Unlike area weighting it does not depend on how a region is
   // triangulated (a fan of thin triangles does not outweigh one large one).
   // kArea: the sum of unnormalised face normals (length = 2 x area).

@@ -1,5 +1,5 @@
 // How a material's normal map encodes its normals (material.json
-// "normal_map_space", README "Material folder"):
+// "normal_map_space", docs/reference/formats.md, "material.json: a result"):
 //   world   (absent = world, the files written before the field existed): RGB
 //           = the world-space unit normal, which replaces the mesh's
 //           interpolated normal;
@@ -9,8 +9,8 @@
 //           made orthogonal to N, B = N x T. The frame is taken where the
 //           surface is shaded, so the mesh's own turn within a texel is kept
 //           (a world map holds the normal of the texel centre across the
-//           texel: on a scanned mesh that turns 10-20 deg per texel this
-//           cost 3.8 dB held-out).
+//           texel: on a scanned mesh whose normal turns within a texel this
+//           costs held-out accuracy; bench_results/bump_default.md).
 // Values are stored as unit vectors in [-1, 1] (not remapped to [0, 1]; the
 // exporters remap). An all-zero value (outside the atlas) means "the mesh
 // normal" in both spaces.

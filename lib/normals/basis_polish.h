@@ -7,11 +7,11 @@
 // against the current basis and absorbs much of that basis' error (a tilt
 // can move a highlight's samples towards a wrong lobe), so the next basis
 // fit in those frames sees the error only in part: the alternation
-// converges linearly and slowly. Measured on the mixed preset (seed 1): the
-// coated plastic's ior 1.413 -> 1.432 -> 1.440 -> 1.448 -> 1.454 over rounds
-// 0-4 (true 1.5; each step ~0.85x the previous one), while the same fit in
-// the TRUE normals' frames gives 1.500 exactly, and truth with only that
-// basis swapped in loses 1.7 dB held-out.
+// converges linearly and slowly. On the mixed preset the coated plastic's
+// ior creeps towards the truth by a shrinking step per round, while the
+// same fit in the TRUE normals' frames recovers it exactly, and the truth
+// with only that basis swapped in relights the held-out views clearly
+// worse.
 //
 // Here, per basis material k whose normals are kept, its interior texels
 // (label k on the texel and its 8 neighbours, no other material's weight),

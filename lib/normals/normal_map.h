@@ -1,7 +1,7 @@
 // Normal maps for the material folder and their comparison with ground truth.
 // material.json's "normal_map" holds unit normals, RGB = xyz, in world space
 // or in the tangent space of the shading point ("normal_map_space",
-// io/normal_map_space.h; README, material section); relight interpolates the
+// io/normal_map_space.h; docs/reference/formats.md); relight interpolates the
 // map bilinearly and applies it at the shading point.
 #pragma once
 #include <vector>

@@ -149,9 +149,8 @@ class Refiner {
   // tilted like the texel (only their mesh normals differ), as all are in
   // the first pass: holding it at its mesh normal while the texel tilts
   // would make its samples ask for the texel's tilt once more on top of
-  // the texel's (measured on the mixed preset: the decision's subset of
-  // 4000 of 16384 texels, started from refined tilts, doubled its held-out
-  // error that way).
+  // the texel's (on the mixed preset, a decision subset started from
+  // refined tilts lost much of its held-out accuracy that way).
   template <class TiltOf>
   Pooled PooledSamples(int t, int which, const TiltOf& tilt_of, bool own_only = false) const {
     Pooled p;
@@ -256,10 +255,9 @@ class Refiner {
   // a texel has few samples the prior holds, and the clustering's weights,
   // fitted under the mesh normals with a model that may not fit (a
   // bump-mapped default capture's mixed cluster), are the worse guess there
-  // (e2e normals test: 29.35 dB, normals rejected, towards the clustering's;
-  // 32.30 dB towards the current; mixed preset 40.01 vs 39.97 dB, copper
-  // normals 1.05 vs 0.96 deg). Returns false (nothing done) when a support
-  // exceeds kMaxSupport.
+  // (towards them the e2e normals test's normals are rejected; the mixed
+  // preset is about the same either way). Returns false (nothing done) when
+  // a support exceeds kMaxSupport.
   template <class WeightsOf>
   bool SolveNormalJoint(int t, const Pooled& fit, double prior, double sigma, double robust_mult, double* ab,
                         const WeightsOf& weights_of) const {
@@ -426,7 +424,7 @@ class Refiner {
         // decision's hundredth of a sample, a source seen in a few training
         // photos fits its per-channel weights to them almost whatever the
         // tilt (mixed_tiny: its matte's held-out error with refined normals
-        // 2.4x the mesh normals' at 0.01, 0.98x at 1).
+        // far above the mesh normals' at a hundredth, about equal at one).
         if (!o_.joint_weights || !SolveNormalJoint(t, fit, kPriorSamples, sigma, robust_mult, &st->ab[2 * j], weights_of)) {
           std::vector<std::vector<WeightedBasis>> basis{Basis(t, weights_of(t))};
           for (int u : neighbours_[t]) basis.push_back(Basis(u, weights_of(u)));
@@ -436,9 +434,9 @@ class Refiner {
       }, 16);
       solve_weights();
       // Re-estimated after every pass, own-sample passes too: the pooled
-      // pass's residuals hold its blur, and a sigma frozen there made both
-      // priors too strong (default_bump, true basis and weights: 41.07 dB
-      // held-out frozen, 42.41 dB re-estimated).
+      // pass's residuals hold its blur, and a sigma frozen there makes both
+      // priors too strong (default_bump, true basis and weights;
+      // bench_results/bump_default.md).
       sigma = Sigma(texels, which, *st);
     }
     return sigma;

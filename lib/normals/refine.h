@@ -65,8 +65,8 @@ struct NormalOptions {
   double neighbour_weight = 0.5;  // weight of the 8 neighbours' samples in a texel's normal fit, in [0, 1]
   // Pooling the neighbours' samples blurs the normal field by a 3 x 3
   // kernel, which a steep lobe pays for dearly (default_bump, true basis
-  // and weights given: held-out 38.58 dB pooled in every pass, 40.15 dB from
-  // own samples alone; truth 42.90 dB). With smooth_tilt > 0 only the first
+  // and weights given: own samples alone relight better than pooled in
+  // every pass; bench_results/bump_default.md). With smooth_tilt > 0 only the first
   // pass pools (a start that sees the bump over the neighbourhood); later
   // passes fit the texel's own samples with a Gaussian prior on the tilt
   // difference to each of its 8 neighbours' current tilts (std smooth_tilt
@@ -89,19 +89,16 @@ struct NormalOptions {
   // Shot noise: sample residuals weighted by 1 / (1 + y / y_med) (y the
   // sample's mean over channels, y_med the median over all samples), the
   // inverse variance of photon noise above a floor, so that sigma and the
-  // Cauchy scale hold for dark and bright samples alike. On by default
-  // since the tilt fit solves the weights with it (joint_weights): mixed
-  // preset, copper normals 1.25 -> 1.05 deg from the truth, held-out
-  // 38.48 -> 40.01 dB. (With the weights held fixed it had cost: mixed_tiny
-  // refined-arm held-out RMSE 0.0157 with it, 0.0129 without; the mixed
-  // preset's normals were rejected, 0.0637 mesh vs 0.0945 refined.)
+  // Cauchy scale hold for dark and bright samples alike. It pays together
+  // with joint_weights (the mixed preset's copper normals come closer to
+  // the truth and relight better); with the weights held fixed it costs.
   bool shot_noise = true;
   // The tilt fit solves the mixing weights with it (joint_cost.h: every
   // pooled source's weights re-solved at each trial tilt) instead of holding
   // the previous pass's weights fixed: weights fitted under the mesh normal
-  // are biased under a bump, and a tilt fitted with them falls short
-  // (mixed preset, true basis and weights given: 0.78 of the true tilt,
-  // 0.96 joint).
+  // are biased under a bump, and a tilt fitted with them falls short of
+  // the true tilt (mixed preset, true basis and weights given), far less
+  // so jointly.
   bool joint_weights = true;
   double max_tilt_deg = 60.0;   // bound of the tilt per tangent axis, in (0, 85]
   int iterations = 3;           // normal + weights passes, >= 1
@@ -117,13 +114,12 @@ struct NormalOptions {
   // (a metal's shifted highlights read as a broader, dimmer lobe), and the
   // normals fitted with biased materials stay short of the true tilt.
   // 2 by default (as the pipeline's bootstrap, normal_stage.h): with the
-  // joint weights below the first refinement is kept on the bump-mapped
-  // default capture (its glossy paint's normals now lower its error, 0.175
-  // -> 0.146), which skips the bootstrap; the rounds then take it from
-  // 29.12 to 32.71 dB held-out (spp 1; main with the bootstrap 31.62 dB).
-  // On the mixed preset round 1 is rejected (held-out RMSE 0.02388 vs
-  // 0.02403, +13 s CPU), on mixed_tiny too (+3.5 s CPU); where no normals
-  // are kept (default, standard) no round runs.
+  // joint weights the first refinement is kept on the bump-mapped default
+  // capture (its glossy paint's normals lower its error), which skips the
+  // bootstrap, and the rounds then gain most of its held-out accuracy
+  // (bench_results/bump_default.md). On the mixed preset and mixed_tiny
+  // round 1 is rejected (it only costs CPU); where no normals are kept
+  // (default, standard) no round runs.
   int material_rounds = 2;
   // In each material round, after the basis is refitted in the current
   // normals' frames: its parameters fitted jointly with the tilts of its

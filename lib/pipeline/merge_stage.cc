@@ -154,11 +154,9 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
     // blend-zone texel mixes its cluster's material with a neighbour's,
     // which neither one material apart nor the merged one (one weight per
     // texel here) represents, so a cluster made of blend zones can look
-    // better apart on all texels (mixed preset, seed 4: the copper's second
-    // cluster apart 0.0282 / merged 0.0425, interior only 0.0160 / 0.0135,
-    // refit apart 0.0174 / merged 0.0161: 3 materials, 43.89 -> 45.52 dB),
-    // while at seed 3 the interior screen said apart (0.0160 / 0.0430) and
-    // all texels merge (0.0246 / 0.0209; refit 0.0105 / 0.0092).
+    // better apart on all texels while its interior says merge, and the
+    // other way round on another seed of the same capture (the mixed
+    // preset's copper split); the refit confirms either.
     const std::vector<int> interior = InteriorLabels(g.atlas, est->label);
     const size_t np = pairs.size();
     std::vector<MergeTest> tests(2 * np);
@@ -191,11 +189,11 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
     // The test above leaves out what the final weights add (their priors
     // towards the cluster's material and the neighbours' weights): with few
     // samples per texel two free weights overfit, and the small bumped
-    // capture's test preferred merging its glossy paint with its red
-    // plastic (apart 0.146, merged 0.137), which relit at 22.9 dB instead of
-    // 32.6. So the passing pair is confirmed on the whole estimate, refitted
-    // apart and merged (model choice, weights) on the samples in the refined
-    // frames, by the same bar; a refit costs about a material round.
+    // capture's test can prefer merging its glossy paint with its red
+    // plastic, which relights far worse. So the passing pair is confirmed on
+    // the whole estimate, refitted apart and merged (model choice, weights)
+    // on the samples in the refined frames, by the same bar; a refit costs
+    // about a material round.
     if (eo.SecondsLeft() <= cluster_seconds * (have_apart ? 0.5 : 1.0)) {
       est->cut_by_deadline.push_back("merge of basis materials");
       break;

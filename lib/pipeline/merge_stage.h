@@ -5,10 +5,10 @@
 //
 // Why: under a bump map the mesh normals misplace a glossy material's
 // highlights texel by texel, and the split search (which runs before the
-// normals exist) can take the shifted highlights for two materials: the
-// mixed preset at seed 3 split its copper into two conductor clusters
-// (4 basis materials for 3). Once the samples are re-expressed in the
-// refined frames (ReorientSamples), the two halves are fitted by one
+// normals exist) can take the shifted highlights for two materials (the
+// mixed preset's copper can come out as two conductor clusters). Once the
+// samples are re-expressed in the refined frames (ReorientSamples), the two
+// halves are fitted by one
 // material about as well, and a split that no longer pays is undone with
 // the split search's own bar (ReconstructOptions::min_improvement).
 #pragma once
@@ -25,17 +25,11 @@ namespace svbrdf {
 struct MergeOptions {
   // Whether the stage runs (CLI --merge / --no-merge; on by default). It
   // runs only when refined normals were kept, on the first kept refinement
-  // (RunNormalStage, before the material rounds). It was off while it ran
-  // after the rounds: there it merged the 160x120 bumped test capture's
-  // two Cook-Torrance clusters (3 -> 2 materials; BumpMapped.
-  // SmallCaptureFindsTheThreeMaterials) and no longer merged the mixed
-  // preset's seed-3 copper split (a round had made the second cluster a
-  // lobe: apart 0.0115, merged 0.0340). Before the rounds, with the basis
-  // polish of the rounds (basis_polish.h): mixed seed 3 4 -> 3 materials,
-  // 43.08 -> 45.74 dB held-out (seed 4, with the interior screen of
-  // MergeSameMaterials: 4 -> 3, 43.89 -> 45.52 dB); seeds 1, 2,
-  // default_bump, the bumped test captures and the Mitsuba
-  // sphere/torus/bunny: no merge, unchanged.
+  // (RunNormalStage, before the material rounds): after the rounds it
+  // would merge two distinct clusters of the small bumped test capture
+  // (BumpMapped.SmallCaptureFindsTheThreeMaterials) and miss the mixed
+  // preset's copper split, whose second cluster a round can turn into a
+  // lobe. Captures without such a split are left unchanged.
   bool enabled = true;
   void Check() const {}
 };

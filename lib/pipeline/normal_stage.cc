@@ -161,9 +161,9 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
   SvbrdfEstimate& est = *est_io;
   NormalRefinement nr;
   if (!no.Enabled()) return nr;
-  // Anytime: the normal decision costs 0.19-0.27x the clustering (measured:
-  // default 0.19, standard 0.27, mixed about 0.24); not started without
-  // 0.35x left, since a decision stopped midway keeps the mesh normals.
+  // Anytime: the normal decision costs a fraction of the clustering's time;
+  // not started without 0.35x left (above that fraction on the presets),
+  // since a decision stopped midway keeps the mesh normals.
   if (eo.SecondsLeft() <= kNormalDecisionShare * cluster_seconds) {
     est.cut_by_deadline.push_back("normal refinement");
     return nr;
@@ -265,9 +265,9 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     // A round that is not worse is kept: its materials were fitted in the
     // frames of the normals that go with them (the previous ones in the
     // mesh's or an older round's frames). Another round runs only after a
-    // clear gain (`min_improvement`). Measured on the mixed preset: a round
-    // 0.3 % below (its materials' errors 0.0043 -> 0.0030 on the coated
-    // plastic, 0.0108 -> 0.0105 on the matte) was dropped for missing the 1 %.
+    // clear gain (`min_improvement`): on the mixed preset a round slightly
+    // below the incumbent, whose materials' errors did drop, would otherwise
+    // be dropped for missing the bar.
     const double incumbent = nr.kept ? nr.heldout_rmse_refined : nr.heldout_rmse_mesh;
     const MaterialRoundDecision d = DecideMaterialRound(nr2.kept, nr2.heldout_rmse_refined, incumbent, no.min_improvement);
     rounds->back()["chosen"] = d.keep;

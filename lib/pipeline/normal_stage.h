@@ -25,23 +25,23 @@ struct NormalAlternationOptions {
   // broader, dimmer lobe, or a Cook-Torrance pinned at its bounds), and
   // normals refined against that lobe stay near the mesh normal, so its
   // texels' held-out error rises and, since they hold most of the error, the
-  // whole refinement is rejected: measured on the bump-mapped default
-  // capture, m0 (glossy blue) 0.174 -> 0.204 while m1 0.0151 -> 0.0103 and
-  // m2 0.0091 -> 0.0061. Then: normals on every texel regardless of the
-  // decision, materials refitted on the samples in their frames, normals
+  // whole refinement is rejected, although the other materials' errors drop
+  // (the bump-mapped default capture's glossy blue;
+  // bench_results/bump_default.md). Then: normals on every texel regardless
+  // of the decision, materials refitted on the samples in their frames, normals
   // refined again and decided on the held-out photos against the mesh
   // normals with the clustering's materials; up to this many rounds while
   // the held-out error drops. 0 = off. Captures whose refinement lowers no
   // material's error (no bumps: the default and standard presets) never
-  // start it. Measured on default_bump: 1 round 29.85 dB held-out (11.3 s
-  // CPU in all), 2 rounds 31.35 dB (15.4 s), 3 rounds 31.41 dB (19.0 s).
+  // start it. 2 rounds: a second round still pays on default_bump, a third
+  // gains little for its CPU (bench_results/bump_default.md).
   int bootstrap_rounds = 2;
   // The bootstrap starts only when some material's held-out squared error
   // drops by this share with the first refinement's normals: under bumps
-  // measured 53-55 % (default_bump's red and green); on captures without a
-  // bump map up to 8 % (the scanned-bunny test's m0 0.0133 -> 0.0128, the
-  // five-material sphere), where a bootstrap round was always rejected and
-  // cost 1-2 s CPU.
+  // the drop is far above it; on captures without a bump map (the
+  // scanned-bunny test, the five-material sphere) it stays far below, and
+  // there a bootstrap round was always rejected and only cost CPU
+  // (bench_results/bump_default.md).
   double min_material_gain = 0.25;
   void Check() const;
 };
@@ -55,11 +55,9 @@ struct NormalAlternationOptions {
 // With `merge` enabled, the merge stage (merge_stage.h) runs on the first
 // kept refinement, before the material rounds (its report in `merged`), so
 // that the rounds refit and refine the merged materials: run after the
-// rounds instead, the mixed preset at seed 3 kept its copper's second
-// cluster (a round had turned it into a lobe that the merge screen could
-// not match: apart 0.0139, merged 0.0188 held-out RMSE) and 4 materials,
-// 43.08 dB; before them the two conductor clusters merge (3 materials,
-// 45.74 dB, the copper's normals 0.65 -> 0.55 deg from the truth).
+// rounds instead, a round can turn one of two clusters of the same material
+// (the mixed preset's copper) into a lobe that the merge screen no longer
+// matches, and the split stays.
 // `output_check`: the stage's photo check of its first refinement when
 // that is still what the stage returns (no second clustering chosen, no
 // merge, no material round kept), so the pipeline's final check need not
@@ -85,12 +83,12 @@ void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinem
 // radiance. Why: the sample-level decision scores samples at texel centres,
 // and relight shades every point between them. A world-space map holds the
 // texel centre's normal across the texel, so on a scan whose normal turns
-// within a texel even a map of the mesh normals costs (Mitsuba bunny 40.16
-// dB held-out without a map, 37.10 dB with a world map of tilt 0). A
+// within a texel even a map of the mesh normals costs (the Mitsuba bunny
+// with a world map of tilt 0; bench_results/bump_default.md). A
 // tangent-space map keeps that turn, but the refined tilts still fit
 // samples that average the photo over a turning footprint; on the bunny the
-// refined materials and weights gain (41.66 dB) while their map loses
-// (39.34 dB), which only the third render shows.
+// refined materials and weights gain while their map loses, which only the
+// third render shows.
 struct PhotoCheck {
   double error_without_map = 0;  // `before`
   double error_with_map = 0;     // `after` with its map
@@ -105,9 +103,8 @@ PhotoCheck CheckNormalMapOnPhotos(const Scene& scene, const GatherResult& g, con
 // refined materials and weights without it, lower that error by
 // `min_improvement` (relative), or there are no photos; ChooseOnPhotos
 // decides among the three after the rounds. Requiring the map itself to
-// pay dropped the refined materials of a clean (256 spp) Mitsuba bunny
-// whose map did not pay (130.2 -> 129.9) while they did (93.2): 41.90 ->
-// 43.08 dB held-out with them.
+// pay would drop refined materials that pay where their map does not (a
+// clean Mitsuba bunny; bench_results/independent.md).
 bool PhotoCheckPasses(const PhotoCheck& pc, double min_improvement);
 // The final choice among the three (reconstruct, after the material rounds):
 // the lower of `after` with and without its map if it is `min_improvement`

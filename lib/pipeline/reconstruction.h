@@ -47,8 +47,10 @@ struct ReconstructionJob {
   // beyond `fit_max_unlit_share` or on another surface (an occluding edge,
   // the background) beyond `fit_max_foreign_share` inform the split search
   // but not the fits, weights and normal stages after it (EstimateSvbrdf's
-  // fit_samples). Measured on Mitsuba captures, held-out dB at hold-out seeds
-  // 1 / 2 / 3: see README "Footprint probe". 1 = keep them everywhere.
+  // fit_samples): no material explains a shadow's or another surface's
+  // radiance (docs/method/reconstruction.md, "The pixel footprint"; results
+  // on the Mitsuba captures: bench_results/independent.md). 1 = keep them
+  // everywhere.
   double fit_max_unlit_share = 0.1;
   double fit_max_foreign_share = 0.01;
   // Photometric captures (one fixed orthographic view, directional lights;

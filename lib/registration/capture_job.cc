@@ -280,9 +280,9 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       for (Photo& p : photos) p.posed = false;
       known.clear();
     }
-    // COLMAP's mapper sometimes converges to a wrong model (seen three times
-    // in the COLMAP e2e test's runs: poses 29 deg and 367 mm from the board
-    // poses, against 0.1-0.9 deg otherwise). Where the board
+    // COLMAP's mapper sometimes converges to a wrong model (seen in the
+    // COLMAP e2e test's runs: poses far from the board poses, which
+    // otherwise agree closely). Where the board
     // gives poses to compare with, a model that disagrees by more than
     // kMaxBoardDisagreementDeg is run again with another RANSAC seed, up to
     // kColmapAttempts times; the last one is kept with a warning.

@@ -8,10 +8,10 @@
 // predicted highlights (the point of each sphere that mirrors the lamp into
 // the camera) land on the observed ones, in pixels, over all views and
 // spheres at once (Ceres, robust loss): the maximum-likelihood estimate for
-// equal pixel noise. (Freeing the sphere centres as well, held near their
-// given positions by a 2 mm prior, made the lamps 14-29 mm worse on the
-// synthetic raw set: with one lamp's few views the centre and the lamp trade
-// off; so the centres stay as given.)
+// equal pixel noise. The sphere centres stay as given: with one lamp's few
+// views the centre and the lamp trade off, so freeing the centres as well,
+// even held near their given positions, makes the lamps worse on the
+// synthetic raw set (bench_results/front_half.md).
 #pragma once
 #include <vector>
 

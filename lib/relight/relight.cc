@@ -203,8 +203,8 @@ RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t ind
         // after at least kMinRounds (the spread of two or three means is
         // too noisy to stop on). The first round must be fine enough to
         // see a sub-pixel feature: on the Mitsuba bunny's truth rounds of
-        // 4 x 4 saturate near 50.0 dB, 6 x 6 reach 50.39, 8 x 8 50.49,
-        // against 50.50 for a fixed 16 x 16 (bench_results/independent.md).
+        // 4 x 4 saturate short of a fixed 16 x 16, finer first rounds all
+        // but reach it (bench_results/independent.md).
         constexpr int kMinRounds = 4;
         if (options.adaptive_max_rounds > 1 && srgb_error(sum, spread / double(n * n)) > options.adaptive_tolerance) {
           Rgb mean = sum, m2 = Rgb::Zero();  // Welford over the round means

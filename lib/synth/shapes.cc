@@ -192,8 +192,9 @@ Mesh LoadShapeFromFile(const std::string& path, int texture_size) {
     co.max_resolution = texture_size;
     co.texel_size = std::sqrt(area / (0.5 * texture_size * texture_size));
     // The painted truth depends on the layout (region seeds are drawn from
-    // texel positions): no chart merging keeps the captures, and the
-    // scan regression of e2e_reconstruct_test, those measured before it.
+    // texel positions): no chart merging keeps the captures, and with them
+    // the thresholds of e2e_reconstruct_test's scan regression, independent
+    // of the chart-merging rule.
     co.min_chart_texels = 0;
     ChartAtlasInfo info;
     m = MakeChartAtlasUVs(m, co, &info);
