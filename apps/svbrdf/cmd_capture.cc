@@ -15,7 +15,7 @@ void RegisterCapture(CLI::App& app, Runner* run) {
       "capture",
       "Photographs -> contract capture (scene.json): intrinsics, HDR merge, board poses (PnP +\n"
       "bundle adjustment), silhouette registration of the mesh, lamps from mirror spheres and the\n"
-      "board's albedo. Reads PHOTOS_DIR/capture.json (see README, 'From photographs').\n"
+      "board's albedo. Reads PHOTOS_DIR/capture.json (see docs/guide/photographs.md).\n"
       "Example: svbrdf capture raw --out capture && svbrdf reconstruct capture/scene.json --out material");
   c->add_option("photos", job->photos_dir, "folder of photos with capture.json")->required();
   c->add_option("--description", job->description, "description file (default PHOTOS_DIR/capture.json)");

@@ -233,6 +233,12 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
                  {"triangles", s.indices.size() / 3},
                  {"normal_map", with_normal_map},
                  {"warnings", json::array()}};
+  // glTF holds one metallic-roughness BRDF per texel: other models are fitted.
+  for (const BasisMaterial& b : m.basis)
+    if (b.spec.family != Family::kGltf)
+      report["warnings"].push_back(Msg("basis '", b.name, "' (", b.spec.Label(), ") has no exact glTF form: fitted per "
+                                       "texel (mean relative error ", mean, "); `svbrdf reconstruct SCENE --for gltf` "
+                                       "fits the glTF BRDF itself"));
   WriteFileAtomic((fs::path(dir) / "export_report.json").string(), report.dump(2));
   return report;
 }

@@ -150,6 +150,10 @@ TEST(Cli, ForMitsubaFitsOnlyExactModels) {
   EXPECT_NE(bad.output.find("lafortune-1"), std::string::npos) << bad.output;
   EXPECT_FALSE(fs::exists(dir + "/bad"));
   EXPECT_NE(RunCli("reconstruct " + scene + " --out " + dir + "/bad --for blender").code, 0);
+  // The glTF export of that material is fitted per texel and says so, naming the refit.
+  const Result g = RunCli("export " + dir + "/mat --format gltf --out " + dir + "/gltf");
+  ASSERT_EQ(g.code, 0) << g.output;
+  EXPECT_NE(g.output.find("--for gltf"), std::string::npos) << g.output;
   fs::remove_all(dir);
 }
 
