@@ -58,7 +58,10 @@ def run(cmd, log_path, timed_rss=False):
         time_file = log_path + ".time"
         full = ["/usr/bin/time", "-v", "-o", time_file] + full
     t0 = time.monotonic()
-    p = subprocess.run(full, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        p = subprocess.run(full, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    except OSError as e:  # e.g. the binary is missing or being relinked
+        raise StepError(f"{' '.join(cmd[:2])}: cannot run: {e}")
     wall = time.monotonic() - t0
     with open(log_path, "a") as f:
         f.write("$ " + " ".join(cmd) + "\n")

@@ -78,8 +78,8 @@ PUBLISHED_NORMALS = {
 }
 
 
-class StepError(RuntimeError):
-    pass
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench import StepError, run  # noqa: E402  (the CLI runner with logs and peak RSS)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -444,33 +444,6 @@ def python_import(dlg, out, hold_out_every=6, erode_px=2, erode_training_px=0, e
 # CLI steps
 
 
-def run(cmd, log_path, timed=False):
-    """Runs cmd (appending its output to log_path); returns (wall s, stdout, peak RSS MB or None)."""
-    full = list(cmd)
-    time_file = None
-    if timed and os.path.exists("/usr/bin/time"):
-        time_file = log_path + ".time"
-        full = ["/usr/bin/time", "-v", "-o", time_file] + full
-    t0 = time.monotonic()
-    try:
-        p = subprocess.run(full, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    except OSError as e:  # e.g. the binary is being relinked
-        raise StepError(f"{' '.join(cmd[:2])}: cannot run: {e}")
-    wall = time.monotonic() - t0
-    with open(log_path, "a") as f:
-        f.write("$ " + " ".join(cmd) + "\n" + p.stdout)
-        f.write("".join(l + "\n" for l in p.stderr.splitlines() if "[#" not in l and "[-" not in l))
-        f.write(f"# exit {p.returncode}, {wall:.2f} s\n\n")
-    if p.returncode != 0:
-        tail = [l for l in p.stderr.splitlines() if "[#" not in l][-5:]
-        raise StepError(f"{' '.join(cmd[:2])} failed (exit {p.returncode}): " + " | ".join(tail))
-    rss = None
-    if time_file and os.path.exists(time_file):
-        m = re.search(r"Maximum resident set size \(kbytes\):\s*(\d+)", open(time_file).read())
-        rss = int(m.group(1)) / 1024.0 if m else None
-    return wall, p.stdout, rss
-
-
 def heldout_signature(scene_path):
     sc = load_scene(scene_path)
     return [(e["file"], e["light"], round(e["exposure"], 9), tuple(np.round(e["to_light"], 6)),
@@ -494,7 +467,7 @@ def run_cli_object(obj, folder, cli, work, hold_out_every, log, res, pics):
             shutil.rmtree(d, ignore_errors=True)
         heldout = os.path.join(cap, "heldout", "scene.json")
         try:
-            wall, _, rss = run([cli, "reconstruct", os.path.join(cap, "scene.json"), "--out", mat], log, timed=True)
+            wall, _, rss = run([cli, "reconstruct", os.path.join(cap, "scene.json"), "--out", mat], log, timed_rss=True)
             res["wall_time_s"][method], res["peak_memory_mb"][method] = round(wall, 2), rss
             run([cli, "relight", mat, heldout, "--out", rel], log)
             _, out, _ = run([cli, "evaluate", rel, heldout], log)
