@@ -71,6 +71,23 @@ TEST(Calib, ReportsViewsWithoutTheBoard) {
   }
 }
 
+// A sharp binary drawing has no gradients for sub-pixel refinement: blurred
+// a little, as a lens does.
+Image Soften(const Image& sharp) {
+  Image soft = sharp;
+  for (int pass = 0; pass < 2; ++pass) {
+    const Image src = soft;
+    for (int y = 1; y + 1 < src.height; ++y)
+      for (int x = 1; x + 1 < src.width; ++x) {
+        float s = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) s += src.at(x + dx, y + dy, 0);
+        soft.at(x, y, 0) = s / 9;
+      }
+  }
+  return soft;
+}
+
 TEST(Calib, DrawnBoardsAreDetectedWhereTheirMapSays) {
   for (auto pattern : {BoardPattern::kChessboard, BoardPattern::kCharuco, BoardPattern::kCircles}) {
     BoardSpec b;
@@ -79,20 +96,7 @@ TEST(Calib, DrawnBoardsAreDetectedWhereTheirMapSays) {
     b.rows = pattern == BoardPattern::kCharuco ? 5 : 4;
     b.square = 0.04;
     const BoardTexture tex = DrawBoard(b, 40);
-    // A sharp binary drawing has no gradients for sub-pixel refinement: blur
-    // it a little, as a lens does.
-    Image soft = tex.image;
-    for (int pass = 0; pass < 2; ++pass) {
-      const Image src = soft;
-      for (int y = 1; y + 1 < src.height; ++y)
-        for (int x = 1; x + 1 < src.width; ++x) {
-          float s = 0;
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) s += src.at(x + dx, y + dy, 0);
-          soft.at(x, y, 0) = s / 9;
-        }
-    }
-    const BoardDetection det = DetectBoard(soft, b);
+    const BoardDetection det = DetectBoard(Soften(tex.image), b);
     ASSERT_TRUE(det.found) << BoardPatternName(pattern) << ": " << det.why;
     const auto obj = b.ObjectPoints();
     double worst = 0;
@@ -101,6 +105,53 @@ TEST(Calib, DrawnBoardsAreDetectedWhereTheirMapSays) {
                                det.points[i]).norm());
     EXPECT_LT(worst, 0.15) << BoardPatternName(pattern);
   }
+}
+
+// Boards printed by OpenCV before 4.6 (or with setLegacyPattern) differ for
+// an even number of rows: a marker in the top-left square. Each layout is
+// detected where its map says, with any marker ratio and dictionary, and a
+// legacy board is not mistaken for today's.
+TEST(Calib, LegacyCharucoLayout) {
+  for (const char* dict : {"DICT_4X4_50", "DICT_5X5_100", "DICT_6X6_250"})
+    for (bool legacy : {false, true}) {
+      BoardSpec b;
+      b.pattern = BoardPattern::kCharuco;
+      b.cols = 7;
+      b.rows = 6;
+      b.square = 0.03;
+      b.marker = std::string(dict) == "DICT_6X6_250" ? 0.024 : 0.018;  // ratios 0.8 and 0.6
+      b.dictionary = dict;
+      b.legacy_layout = legacy;
+      const BoardTexture tex = DrawBoard(b, 40);
+      // Top-left square: a marker (mostly white paper around black bits) or black.
+      double mean = 0;
+      const int q = tex.quiet_zone_px;
+      for (int y = q; y < q + 40; ++y)
+        for (int x = q; x < q + 40; ++x) mean += tex.image.at(x, y, 0) / 1600.0;
+      if (legacy)
+        EXPECT_GT(mean, 0.2) << dict;
+      else
+        EXPECT_LT(mean, 0.01) << dict;
+      const Image soft = Soften(tex.image);
+      const BoardDetection det = DetectBoard(soft, b);
+      ASSERT_TRUE(det.found) << dict << (legacy ? " legacy: " : " new: ") << det.why;
+      const auto obj = b.ObjectPoints();
+      double worst = 0;
+      for (size_t i = 0; i < det.ids.size(); ++i)
+        worst = std::max(worst, (tex.texture_from_board * Vec3(obj[det.ids[i]].x(), obj[det.ids[i]].y(), 1) -
+                                 det.points[i]).norm());
+      EXPECT_LT(worst, 0.15) << dict << (legacy ? " legacy" : " new");
+      // The other layout's definition labels the corners wrongly: they are
+      // not where its map says.
+      BoardSpec other = b;
+      other.legacy_layout = !legacy;
+      const BoardDetection wrong = DetectBoard(soft, other);
+      double wrong_worst = 0;
+      for (size_t i = 0; i < wrong.ids.size(); ++i)
+        wrong_worst = std::max(wrong_worst, (tex.texture_from_board * Vec3(obj[wrong.ids[i]].x(), obj[wrong.ids[i]].y(), 1) -
+                                             wrong.points[i]).norm());
+      EXPECT_TRUE(!wrong.found || wrong_worst > 30) << dict << " " << wrong_worst;
+    }
 }
 
 // Exposure per photo from EXIF (opencv-doc's board.jpg: 1/100 s, f/6.3, ISO 100).

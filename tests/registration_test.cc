@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -40,15 +41,16 @@ double AngleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return Eigen::AngleAxisd(a * b.conjugate()).angle() * 180 / kPi;
 }
 
-// Raw-photo options with the suite's ChArUco board drawn into the scene.
-RawPhotoOptions RawOptionsWithBoard() {
+// Raw-photo options with a ChArUco board (the suite's unless given) drawn
+// into the scene.
+RawPhotoOptions RawOptionsWithBoard(const BoardSpec& board = DefaultRawBoard()) {
   RawPhotoOptions o;
-  const BoardSpec board = DefaultRawBoard();
   const BoardTexture tex = DrawBoard(board, 48);
   o.board_texture = tex.image;
   o.texture_from_board = tex.texture_from_board;
-  o.board_json = {{"pattern", "charuco"}, {"cols", board.cols}, {"rows", board.rows},
-                  {"square", board.square}, {"marker", board.marker}};
+  o.board_json = {{"pattern", "charuco"}, {"cols", board.cols}, {"rows", board.rows}, {"square", board.square},
+                  {"marker", board.marker}, {"dictionary", board.dictionary},
+                  {"layout", board.legacy_layout ? "legacy" : "new"}};
   return o;
 }
 
@@ -493,8 +495,10 @@ TEST_F(Registration, FlashLightsFollowTheCamera) {
 // set (4 photos, camera known), rendered with a flash of intensity 1.7.
 // A small flash-lit raw set (4 photos, camera known, no held-out views) in
 // TMPL/raw, run through `capture` into TMPL/capture; returns the report.
-nlohmann::json FlashRawSetThroughCapture(const std::string& tmpl, const std::string& format) {
-  RawPhotoOptions o = RawOptionsWithBoard();
+nlohmann::json FlashRawSetThroughCapture(const std::string& tmpl, const std::string& format,
+                                         const BoardSpec& board = DefaultRawBoard(),
+                                         const std::function<void(nlohmann::json*)>& edit = nullptr) {
+  RawPhotoOptions o = RawOptionsWithBoard(board);
   o.num_images = 4;
   o.num_heldout = 0;
   o.num_calibration = 0;
@@ -507,8 +511,67 @@ nlohmann::json FlashRawSetThroughCapture(const std::string& tmpl, const std::str
   nlohmann::json desc = ReadJsonFile(tmpl + "/raw/capture.json");
   WriteColmapCameras({truth.camera}, tmpl + "/raw/cameras.txt");
   desc["camera"] = {{"cameras_txt", "cameras.txt"}};
+  if (edit) edit(&desc);
   WriteFileAtomic(tmpl + "/raw/capture.json", desc.dump());
   return QuickCapture(tmpl + "/raw", tmpl + "/capture");
+}
+
+// Issue 25: a board whose only white paper is the narrow margin around its
+// markers (marker 0.8 of the square, legacy layout, another dictionary) and
+// nobody knows the paper's albedo: the flash is measured relative to the
+// assumed albedo 0.8 (true 0.9), and the report says so.
+TEST(RegistrationFlash, NarrowMarginLegacyBoardWithoutPaperAlbedo) {
+  std::string tmpl = (fs::temp_directory_path() / "svbrdf_board_XXXXXX").string();
+  ASSERT_TRUE(mkdtemp(tmpl.data()));
+  BoardSpec board = DefaultRawBoard();
+  board.cols = 10;
+  board.marker = 0.028;
+  board.dictionary = "DICT_5X5_100";
+  board.legacy_layout = true;
+  const auto no_albedo = [](nlohmann::json* d) {
+    (*d)["board"].erase("white_albedo");
+    (*d)["board"].erase("black_albedo");
+  };
+  const nlohmann::json report = FlashRawSetThroughCapture(tmpl, "png16", board, no_albedo);
+  EXPECT_FALSE(report["paper_albedo"]["given"].get<bool>());
+  EXPECT_NE(report["paper_albedo"]["note"].get<std::string>().find("relative"), std::string::npos);
+  const Scene scene = LoadScene(tmpl + "/capture/scene.json");
+  ASSERT_EQ(scene.images.size(), 4u);
+  const double expected = 1.7 * 0.9 / 0.8;  // RawPhotoOptions::white_albedo 0.9 against the assumed 0.8
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(scene.lights[0].intensity[c] / expected, 1.0, 0.02) << c;
+  std::printf("narrow-margin legacy board, paper albedo unknown: flash %.4f (expected %.4f) from %d samples\n",
+              scene.lights[0].intensity[0], expected, report["lights"][0]["reference_samples"].get<int>());
+  fs::remove_all(tmpl);
+}
+
+// No paper to measure on (a mirror ball claimed to cover the board): a clear
+// error that names the light and says what to give; given, it is used.
+TEST(RegistrationFlash, NoPaperAsksForTheIntensity) {
+  std::string tmpl = (fs::temp_directory_path() / "svbrdf_nopaper_XXXXXX").string();
+  ASSERT_TRUE(mkdtemp(tmpl.data()));
+  const auto huge_ball = [](nlohmann::json* d) {
+    (*d)["mirror_spheres"] = {{"radius", 1.0}, {"centres", {{0.2, 0.15, -1.0}}}};
+  };
+  try {
+    FlashRawSetThroughCapture(tmpl, "png16", DefaultRawBoard(), huge_ball);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("capture.json: light 1: no white board paper"), std::string::npos) << what;
+    EXPECT_NE(what.find("Give the lamp's \"intensity\""), std::string::npos) << what;
+    EXPECT_NE(what.find("near a mirror ball"), std::string::npos) << what;
+  }
+  EXPECT_FALSE(fs::exists(tmpl + "/capture"));
+  fs::remove_all(tmpl);
+  ASSERT_TRUE(fs::create_directories(tmpl));
+  const nlohmann::json report = FlashRawSetThroughCapture(tmpl, "png16", DefaultRawBoard(), [&](nlohmann::json* d) {
+    huge_ball(d);
+    (*d)["lights"][0]["intensity"] = {1.5, 1.6, 1.7};
+  });
+  const Scene scene = LoadScene(tmpl + "/capture/scene.json");
+  EXPECT_EQ(scene.lights[0].intensity[1], 1.6);
+  EXPECT_FALSE(report["lights"][0]["intensity_measured"].get<bool>());
+  fs::remove_all(tmpl);
 }
 
 TEST(RegistrationFlash, FlashIntensityFromTheBoardPaper) {

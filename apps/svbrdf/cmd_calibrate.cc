@@ -11,6 +11,7 @@ namespace svbrdf::cli {
 void RegisterCalibrate(CLI::App& app, Runner* run) {
   struct Args {
     std::string pattern = "chessboard", corners = "9x6", model = "OPENCV", dictionary = "DICT_4X4_50", out;
+    std::string layout = "new";
     double square = 0.025, marker = 0;
     double reject_factor = 4.0;
     std::vector<std::string> images;
@@ -28,6 +29,10 @@ void RegisterCalibrate(CLI::App& app, Runner* run) {
   c->add_option("--square", a->square, "square side (circle spacing) in metres");
   c->add_option("--marker", a->marker, "charuco: marker side in metres (default 0.7 x square)");
   c->add_option("--dictionary", a->dictionary, "charuco: ArUco dictionary, e.g. DICT_4X4_50");
+  c->add_option("--charuco-layout", a->layout,
+                "charuco: new (OpenCV >= 4.6) | legacy (older OpenCV, or setLegacyPattern(true));\n"
+                "they differ for an even number of rows (legacy: a marker in the top-left square)")
+      ->check(CLI::IsMember({"new", "legacy"}));
   c->add_option("--model", a->model, "SIMPLE_PINHOLE | PINHOLE | SIMPLE_RADIAL | RADIAL | OPENCV");
   c->add_option("--reject-factor", a->reject_factor, "reject views with RMS above this x the median RMS");
   c->add_option("--out", a->out, "output folder")->required();
@@ -40,6 +45,7 @@ void RegisterCalibrate(CLI::App& app, Runner* run) {
       o.board.square = a->square;
       o.board.marker = a->marker;
       o.board.dictionary = a->dictionary;
+      o.board.legacy_layout = a->layout == "legacy";
       o.model = CameraModelFromName(a->model, "--model");
       o.reject_factor = a->reject_factor;
       const CalibrationResult r = CalibrateIntrinsics(a->images, o);

@@ -47,9 +47,77 @@ cv::Ptr<cv::aruco::Dictionary> DictionaryByName(const std::string& name) {
   throw Error(Msg("board dictionary '", name, "' unknown; expected e.g. DICT_4X4_50, DICT_5X5_100, DICT_6X6_250"));
 }
 
+// Debian's OpenCV 4.6 builds today's layout only (black top-left square).
+// The legacy layout (marker in the top-left square when the row count is
+// even) is built from it: same inner corners, markers moved to the other
+// squares, ids again row by row, and the corner-to-marker neighbourhoods
+// recomputed the way OpenCV's CharucoBoard::create does.
 cv::Ptr<cv::aruco::CharucoBoard> MakeCharuco(const BoardSpec& b) {
-  return cv::aruco::CharucoBoard::create(b.cols, b.rows, float(b.square), float(b.MarkerSide()),
-                                         DictionaryByName(b.dictionary));
+  auto cb = cv::aruco::CharucoBoard::create(b.cols, b.rows, float(b.square), float(b.MarkerSide()),
+                                            DictionaryByName(b.dictionary));
+  if (!b.legacy_layout || b.rows % 2 == 1) return cb;
+  const float sq = float(b.square), m = float(b.MarkerSide()), d = 0.5f * (sq - m);
+  std::vector<std::vector<cv::Point3f>> obj;
+  for (int r = 0; r < b.rows; ++r)
+    for (int c = 0; c < b.cols; ++c) {
+      if ((r + c) % 2 != 0) continue;  // legacy, even rows: markers where row + column is even
+      const float x = c * sq + d, y = r * sq + d;
+      obj.push_back({{x, y, 0}, {x + m, y, 0}, {x + m, y + m, 0}, {x, y + m, 0}});  // OpenCV's corner order
+    }
+  cb->objPoints = obj;
+  cb->ids.resize(obj.size());
+  for (size_t i = 0; i < obj.size(); ++i) cb->ids[i] = int(i);
+  cb->nearestMarkerIdx.assign(cb->chessboardCorners.size(), {});
+  cb->nearestMarkerCorners.assign(cb->chessboardCorners.size(), {});
+  const double tie = std::pow(0.01 * sq, 2);
+  for (size_t i = 0; i < cb->chessboardCorners.size(); ++i) {
+    const cv::Point3f corner = cb->chessboardCorners[i];
+    double best = -1;
+    auto& near = cb->nearestMarkerIdx[i];
+    for (size_t j = 0; j < obj.size(); ++j) {
+      const cv::Point3f centre = 0.25f * (obj[j][0] + obj[j][1] + obj[j][2] + obj[j][3]);
+      const double dist = std::pow(double(centre.x - corner.x), 2) + std::pow(double(centre.y - corner.y), 2);
+      if (best < 0 || std::abs(dist - best) < tie) {
+        near.push_back(int(j));
+        if (best < 0 || dist < best) best = dist;
+      } else if (dist < best) {
+        near.assign(1, int(j));
+        best = dist;
+      }
+    }
+    for (int j : near) {
+      int nearest = 0;
+      double nd = 1e30;
+      for (int k = 0; k < 4; ++k) {
+        const double dk = cv::norm(obj[j][k] - corner);
+        if (dk < nd) nd = dk, nearest = k;
+      }
+      cb->nearestMarkerCorners[i].push_back(nearest);
+    }
+  }
+  return cb;
+}
+
+// The printed ChArUco board: black squares where no marker sits, markers in
+// the others (OpenCV's own drawing knows today's layout only).
+cv::Mat DrawCharuco(const BoardSpec& b, int pps) {
+  const auto cb = MakeCharuco(b);
+  cv::Mat img(cv::Size(b.cols * pps, b.rows * pps), CV_8U, cv::Scalar(255));
+  const double to_px = pps / b.square;
+  std::vector<bool> has_marker(size_t(b.cols * b.rows), false);
+  for (size_t j = 0; j < cb->objPoints.size(); ++j) {
+    const cv::Point3f& tl = cb->objPoints[j][0];
+    const int c = int(tl.x / b.square), r = int(tl.y / b.square);
+    has_marker[size_t(r * b.cols + c)] = true;
+    const int side = int(std::lround(b.MarkerSide() * to_px));
+    cv::Mat marker;
+    cb->dictionary->drawMarker(cb->ids[j], side, marker, 1);
+    marker.copyTo(img(cv::Rect(int(std::lround(tl.x * to_px)), int(std::lround(tl.y * to_px)), side, side)));
+  }
+  for (int r = 0; r < b.rows; ++r)
+    for (int c = 0; c < b.cols; ++c)
+      if (!has_marker[size_t(r * b.cols + c)]) img(cv::Rect(c * pps, r * pps, pps, pps)).setTo(0);
+  return img;
 }
 
 }  // namespace
@@ -161,12 +229,17 @@ BoardDetection DetectBoard(const Image& image, const BoardSpec& board) {
   return det;
 }
 
-BoardTexture DrawBoard(const BoardSpec& board, int pps) {
-  board.Check();
-  if (pps < 8) throw Error("DrawBoard: pixels_per_square must be >= 8");
+namespace {
+
+// The printed pattern at `pps` pixels a square, with a white quiet zone of
+// one square all round.
+cv::Mat DrawPattern(const BoardSpec& board, int pps) {
   cv::Mat img;
   if (board.pattern == BoardPattern::kCharuco) {
-    MakeCharuco(board)->draw(cv::Size(board.cols * pps, board.rows * pps), img, 0, 1);
+    if (board.legacy_layout)
+      img = DrawCharuco(board, pps);
+    else
+      MakeCharuco(board)->draw(cv::Size(board.cols * pps, board.rows * pps), img, 0, 1);
   } else {
     // (cols+1) x (rows+1) squares for cols x rows inner corners; circles on white.
     img = cv::Mat(cv::Size((board.cols + 1) * pps, (board.rows + 1) * pps), CV_8U, cv::Scalar(255));
@@ -180,11 +253,33 @@ BoardTexture DrawBoard(const BoardSpec& board, int pps) {
         }
       }
   }
-  cv::copyMakeBorder(img, img, pps, pps, pps, pps, cv::BORDER_CONSTANT, cv::Scalar(255));  // quiet zone
+  cv::copyMakeBorder(img, img, pps, pps, pps, pps, cv::BORDER_CONSTANT, cv::Scalar(255));
+  return img;
+}
+
+}  // namespace
+
+BoardTexture DrawBoard(const BoardSpec& board, int pps) {
+  board.Check();
+  if (pps < 8) throw Error("DrawBoard: pixels_per_square must be >= 8");
   BoardTexture out;
-  out.image = FromCv(img);
-  // Fit texture = A [x y 1] to the board's own detection.
-  const BoardDetection det = DetectBoard(out.image, board);
+  out.image = FromCv(DrawPattern(board, pps));
+  out.quiet_zone_px = pps;
+  // The map from board to texture follows the detector's conventions (which
+  // corner is the origin, axis directions): fitted to the board's detection
+  // in its own drawing. ArUco's detector misses markers of sharp synthetic
+  // drawings at some scales (wide markers at 48 px a square and up), so the
+  // drawing is detected at the first scale that works; the map scales with
+  // it exactly (pixel edges at integers).
+  BoardDetection det;
+  int detect_pps = 0;
+  for (int p : {pps, 40, 32, 48, 24, 64}) {
+    det = DetectBoard(p == pps ? out.image : FromCv(DrawPattern(board, p)), board);
+    if (det.found) {
+      detect_pps = p;
+      break;
+    }
+  }
   if (!det.found) throw Error(Msg("DrawBoard: the drawn board is not detected (", det.why, ")"));
   const std::vector<Vec3> obj = board.ObjectPoints();
   Eigen::MatrixXd A(det.points.size(), 3);
@@ -193,7 +288,7 @@ BoardTexture DrawBoard(const BoardSpec& board, int pps) {
     A.row(i) << obj[det.ids[i]].x(), obj[det.ids[i]].y(), 1.0;
     b.row(i) = det.points[i].transpose();
   }
-  out.texture_from_board = A.colPivHouseholderQr().solve(b).transpose();
+  out.texture_from_board = (double(pps) / detect_pps) * A.colPivHouseholderQr().solve(b).transpose();
   // The drawing is exact: squares are `pps` pixels and axes are aligned, so
   // snap the measured map to that (removes the detector's sub-pixel noise).
   const double unit = pps / board.square;

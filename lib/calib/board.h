@@ -26,12 +26,18 @@ enum class BoardPattern { kChessboard, kCharuco, kCircles };
 //   square    side of one square (circle spacing), metres, > 0
 //   marker    charuco: marker side, metres, in (0, square)
 //   dictionary charuco: OpenCV predefined dictionary name (DICT_4X4_50, ...)
+//   legacy_layout charuco: the layout of OpenCV before 4.6 (and of boards
+//             printed with its `setLegacyPattern(true)`), which differs from
+//             today's only for an even number of rows: its top-left square
+//             holds a marker, today's is black. Marker ids run row by row
+//             from the top left in both.
 struct BoardSpec {
   BoardPattern pattern = BoardPattern::kChessboard;
   int cols = 9, rows = 6;
   double square = 0.025;
   double marker = 0.0;  // 0: 0.7 * square
   std::string dictionary = "DICT_4X4_50";
+  bool legacy_layout = false;
 
   void Check() const;
   double MarkerSide() const { return marker > 0 ? marker : 0.7 * square; }
@@ -64,6 +70,9 @@ BoardDetection DetectBoard(const Image& image, const BoardSpec& board);
 struct BoardTexture {
   Image image;
   Eigen::Matrix<double, 2, 3> texture_from_board;
+  // White quiet zone drawn around the pattern, pixels on each side: how far
+  // the printed paper reaches beyond the pattern is not known.
+  int quiet_zone_px = 0;
 };
 BoardTexture DrawBoard(const BoardSpec& board, int pixels_per_square);
 

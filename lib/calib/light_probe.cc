@@ -86,25 +86,31 @@ Vec3 NearestPointToRays(const std::vector<Ray3>& rays, double* rms_m) {
   return x;
 }
 
-void AppendIntensityEstimates(const std::vector<DiffuseSample>& samples, const Vec3& light, std::vector<double>* est) {
+void AppendIntensityEstimates(const std::vector<DiffuseSample>& samples, const Vec3& light, std::vector<Rgb>* est) {
   for (const DiffuseSample& s : samples) {
     const Vec3 to_l = light - s.point;
     const double r2 = to_l.squaredNorm(), cos_i = s.normal.dot(to_l.normalized());
-    if (cos_i < 0.2 || s.albedo <= 0 || s.exposure <= 0 || !(s.value > 0)) continue;
+    if (cos_i < 0.2 || s.albedo <= 0 || s.exposure <= 0 || !(s.value.maxCoeff() > 0)) continue;
     est->push_back(s.value * kPi * r2 / (s.exposure * s.albedo * cos_i));
   }
 }
 
-double MedianIntensity(std::vector<double> est) {
+Rgb MedianIntensity(const std::vector<Rgb>& est) {
   if (est.empty()) throw Error("light intensity: no usable diffuse reference samples");
-  std::nth_element(est.begin(), est.begin() + est.size() / 2, est.end());
-  return est[est.size() / 2];
+  Rgb out;
+  std::vector<double> channel(est.size());
+  for (int c = 0; c < 3; ++c) {
+    for (size_t i = 0; i < est.size(); ++i) channel[i] = est[i][c];
+    std::nth_element(channel.begin(), channel.begin() + channel.size() / 2, channel.end());
+    out[c] = channel[channel.size() / 2];
+  }
+  return out;
 }
 
-double IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light) {
-  std::vector<double> est;
+Rgb IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light) {
+  std::vector<Rgb> est;
   AppendIntensityEstimates(samples, light, &est);
-  return MedianIntensity(std::move(est));
+  return MedianIntensity(est);
 }
 
 }  // namespace svbrdf

@@ -39,19 +39,20 @@ bool ReflectedRay(const Camera& camera, const Rigid3& cam_from_world, const Mirr
 // *rms_m gets the RMS distance of the point to the rays.
 Vec3 NearestPointToRays(const std::vector<Ray3>& rays, double* rms_m = nullptr);
 
-// One reference observation: pixel value, exposure, albedo and geometry.
+// One reference observation: pixel value (RGB), exposure, albedo and geometry.
 struct DiffuseSample {
-  double value = 0, exposure = 1, albedo = 0;
+  Rgb value = Rgb::Zero();
+  double exposure = 1, albedo = 0;
   Vec3 point = Vec3::Zero(), normal = Vec3::UnitZ();
 };
-// Median point-light intensity (W/sr in the image's units) from reference
-// samples; throws Error with no usable sample.
-double IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light_position);
+// Median point-light intensity per channel (W/sr in the image's units) from
+// reference samples; throws Error with no usable sample.
+Rgb IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light_position);
 // The same in parts, for a light that moves between photos (a flash): each
-// usable sample's estimate appended (grazing, < 0.2 cosine, or dark samples
-// skipped), then the median (throws Error when empty).
+// usable sample's estimate appended (grazing, < 0.2 cosine, or black samples
+// skipped), then the per-channel median (throws Error when empty).
 void AppendIntensityEstimates(const std::vector<DiffuseSample>& samples, const Vec3& light_position,
-                              std::vector<double>* estimates);
-double MedianIntensity(std::vector<double> estimates);
+                              std::vector<Rgb>* estimates);
+Rgb MedianIntensity(const std::vector<Rgb>& estimates);
 
 }  // namespace svbrdf

@@ -23,10 +23,17 @@
 #include "registration/colmap_sfm.h"
 #include "registration/lamp_position.h"
 #include "registration/silhouette.h"
+#include "registration/white_paper.h"
+#include "raytrace/raytracer.h"
 
 namespace svbrdf {
 
 namespace fs = std::filesystem;
+
+// Diffuse albedo taken for the board's paper when the description does not
+// give it: matte white office paper reflects roughly 0.8 diffusely. Only the
+// scale of intensities and albedos depends on it, never their ratios.
+constexpr double kAssumedPaperAlbedo = 0.8;
 
 void CaptureJob::Check() const {
   if (photos_dir.empty() || out_dir.empty()) throw Error("capture: photos folder and --out are required");
@@ -90,8 +97,45 @@ BoardSpec BoardFromJson(const nlohmann::json& j, const std::string& ctx) {
   b.square = Field<double>(j, "square", ctx);
   if (j.contains("marker")) b.marker = Field<double>(j, "marker", ctx);
   if (j.contains("dictionary")) b.dictionary = Field<std::string>(j, "dictionary", ctx);
+  if (j.contains("layout")) {
+    const std::string layout = Field<std::string>(j, "layout", ctx);
+    if (layout != "new" && layout != "legacy")
+      throw Error(Msg(ctx, ": layout: \"", layout, "\" unknown; expected \"new\" (OpenCV >= 4.6, the default) or \"legacy\""));
+    b.legacy_layout = layout == "legacy";
+  }
   b.Check();
   return b;
+}
+
+// A lamp's intensity as given: W/sr, a number (white) or [r, g, b].
+std::optional<Rgb> IntensityFromJson(const nlohmann::json& lj, const std::string& context) {
+  if (!lj.contains("intensity")) return std::nullopt;
+  const nlohmann::json& v = lj.at("intensity");
+  Rgb I;
+  if (v.is_number()) {
+    I = Rgb::Constant(v.get<double>());
+  } else if (v.is_array() && v.size() == 3 && v[0].is_number() && v[1].is_number() && v[2].is_number()) {
+    I = Rgb(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+  } else {
+    throw Error(Msg(context, ": intensity must be a number or [r, g, b] (W/sr)"));
+  }
+  if (!(I.minCoeff() >= 0 && I.maxCoeff() > 0 && I.allFinite()))
+    throw Error(Msg(context, ": intensity must be >= 0 per channel and > 0 in one"));
+  return I;
+}
+
+Image DilateMask(const Image& mask, int radius) {
+  Image out = mask;
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) {
+      if (mask.at(x, y, 0) <= 0.5f) continue;
+      for (int dy = -radius; dy <= radius; ++dy)
+        for (int dx = -radius; dx <= radius; ++dx) {
+          const int u = x + dx, v = y + dy;
+          if (u >= 0 && v >= 0 && u < mask.width && v < mask.height) out.at(u, v, 0) = 1.0f;
+        }
+    }
+  return out;
 }
 
 struct Photo {
@@ -120,8 +164,11 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   auto path = [&](const std::string& rel) { return (fs::path(job.photos_dir) / rel).string(); };
   const nlohmann::json& board_j = Field<nlohmann::json>(desc, "board", ctx);
   const BoardSpec board = BoardFromJson(board_j, ctx + ": board");
-  const double white = Field<double>(board_j, "white_albedo", ctx + ": board");
-  const double black = Field<double>(board_j, "black_albedo", ctx + ": board");
+  // The paper's albedo sets the absolute scale of measured lamp intensities;
+  // without it they are relative (kAssumedPaperAlbedo, stated in the report).
+  const bool paper_albedo_known = board_j.contains("white_albedo");
+  const double white = paper_albedo_known ? Field<double>(board_j, "white_albedo", ctx + ": board") : kAssumedPaperAlbedo;
+  if (!(white > 0 && white <= 1)) throw Error(Msg(ctx, ": board: white_albedo must be in (0, 1]"));
   // "linear": 16-bit linear PNG/TIFF or EXR brackets. "srgb" / "nonlinear":
   // 8-bit brackets through an unknown camera response (JPEG), recovered
   // from the brackets themselves; the merged radiance is then known up to
@@ -378,7 +425,7 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   nlohmann::json iou = nlohmann::json::array();
   for (size_t k = 0; k < posed.size(); ++k)
     iou.push_back({{"photo", posed[k]}, {"before", reg.iou_before[k]}, {"after", reg.iou_after[k]}});
-  report["registration"] = {{"world_from_mesh", PoseJson(reg.world_from_object)},
+  report["registration"] = {{"world_from_mesh", PoseJson(reg.world_from_object)}, {"masks", mask_mode},
                             {"contour_distance_px", reg.mean_distance_px}, {"mask_iou", iou}};
   timer.Stop();
 
@@ -393,38 +440,33 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       spheres.push_back({Vec3(c[0], c[1], c[2]), radius});
     }
   }
-  const BoardTexture tex = DrawBoard(board, 32);
-  // The diffuse reference of known albedo: board points on white paper
-  // (texture value 1 all round them) seen in posed photo k, not hidden by the
-  // object, away from the mirror balls, not clipped.
-  const Eigen::Matrix2d lin_inv = tex.texture_from_board.leftCols(2).inverse();
-  auto white_samples = [&](size_t k, std::vector<DiffuseSample>* samples) {
-    const size_t i = posed[k];
-    const Image& img = photos[i].hdr.radiance;
-    for (int ty = 2; ty < tex.image.height - 2; ty += 3)
-      for (int tx = 2; tx < tex.image.width - 2; tx += 3) {
-        bool all_white = true;
-        for (int dy = -2; dy <= 2 && all_white; ++dy)
-          for (int dx = -2; dx <= 2; ++dx) all_white &= tex.image.at(tx + dx, ty + dy, 0) > 0.99f;
-        if (!all_white) continue;
-        const Vec2 b = lin_inv * (Vec2(tx + 0.5, ty + 0.5) - tex.texture_from_board.col(2));
-        const Vec3 X(b.x(), b.y(), 0.0);
-        const Vec3 xc = photos[i].cam_from_world * X;
-        if (xc.z() <= 0) continue;
-        const Vec2 px = camera.Project(xc);
-        const int x = int(px.x()), y = int(px.y());
-        if (x < 1 || y < 1 || x >= img.width - 1 || y >= img.height - 1) continue;
-        if (reg.iou_after.size() && sviews[k].mask.at(x, y, 0) > 0.5f) continue;  // the object hides it
-        bool near_sphere = false;
-        for (const MirrorSphere& s : spheres) near_sphere |= (X - s.centre).norm() < 1.5 * s.radius;
-        if (near_sphere || photos[i].hdr.saturated.at(x, y, 0) > 0) continue;
-        // Normal of the board towards the camera side.
-        const Vec3 eye = photos[i].cam_from_world.CentreInWorld();
-        const Vec3 n = eye.z() > 0 ? Vec3(0, 0, 1) : Vec3(0, 0, -1);
-        double v = 0;
-        for (int c = 0; c < 3; ++c) v += img.at(x, y, c) / 3;
-        samples->push_back({v, 1.0, white, X, n});
-      }
+  // The white paper as a diffuse reference; its texture fine enough that a
+  // pixel's footprint spans several texels.
+  const BoardTexture tex = DrawBoard(board, 64);
+  Mesh registered = mesh;
+  for (Vec3& p : registered.positions) p = reg.world_from_object * p;
+  const RayTracer occluder(registered);
+  // The object's pixels: its mask and its registered silhouette, widened by
+  // the blur of its edge.
+  std::vector<Image> object_pixels;
+  for (size_t k = 0; k < posed.size(); ++k) {
+    Image m = RenderSilhouette(mesh, reg.world_from_object, camera, photos[posed[k]].cam_from_world);
+    for (size_t p = 0; p < m.pixels.size(); ++p) m.pixels[p] = std::max(m.pixels[p], sviews[k].mask.pixels[p]);
+    object_pixels.push_back(DilateMask(m, 2));
+  }
+  PaperCounts paper_counts;
+  auto white_samples = [&](size_t k, const Vec3& light_at, std::vector<DiffuseSample>* samples) {
+    const Photo& ph = photos[posed[k]];
+    const PaperView view{&camera, ph.cam_from_world, &ph.hdr.radiance, &ph.hdr.saturated, &object_pixels[k]};
+    paper_counts += SampleWhitePaper(tex, view, spheres, &occluder, light_at, white, /*stride=*/2, samples);
+  };
+  auto no_paper = [&](int id, size_t photos_lit) {
+    return Error(Msg(ctx, ": light ", id, ": no white board paper to measure its intensity in its ", photos_lit,
+                     " photos (pixels that see only paper: ", paper_counts.white, "; covered by the object ",
+                     paper_counts.hidden, ", in a shadow ", paper_counts.shadowed, ", near a mirror ball ",
+                     paper_counts.near_ball, ", saturated ", paper_counts.saturated,
+                     "). Give the lamp's \"intensity\" in W/sr (a number or [r, g, b]) for light ", id,
+                     ", or show more of the board's white paper lit by it"));
   };
   std::vector<Light> lights;
   nlohmann::json lights_report = nlohmann::json::array();
@@ -432,29 +474,32 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   for (const auto& lj : Field<nlohmann::json>(desc, "lights", ctx)) {
     Light light;
     light.id = Field<int>(lj, "id", ctx + ": lights[]");
-    const std::string kind = Field<std::string>(lj, "type", ctx + ": lights[]");
+    const std::string lctx = Msg(ctx, ": light ", light.id);
+    const std::string kind = Field<std::string>(lj, "type", lctx);
+    const std::optional<Rgb> given = IntensityFromJson(lj, lctx);
+    std::vector<size_t> lit;  // posed photos it lights
+    for (size_t k = 0; k < posed.size(); ++k)
+      if (photos[posed[k]].light == light.id) lit.push_back(k);
+    paper_counts = PaperCounts{};
     if (kind == "flash") {
       // A flash moves with the camera: one point light per photo at the
       // given offset in the camera frame (metres, x right, y down, z forward).
-      const auto off = Field<std::vector<double>>(lj, "offset", Msg(ctx, ": light ", light.id));
-      if (off.size() != 3) throw Error(Msg(ctx, ": light ", light.id, ": offset must be [x, y, z] metres"));
+      const auto off = Field<std::vector<double>>(lj, "offset", lctx);
+      if (off.size() != 3) throw Error(Msg(lctx, ": offset must be [x, y, z] metres"));
+      const Vec3 offset(off[0], off[1], off[2]);
       // Intensity: given, or from the white paper of every photo it lit
       // (one flash, the same output in every photo: the median over all).
-      double intensity = lj.contains("intensity") ? Field<double>(lj, "intensity", ctx + ": lights[]") : 0.0;
-      std::vector<size_t> lit;
-      for (size_t k = 0; k < posed.size(); ++k)
-        if (photos[posed[k]].light == light.id) lit.push_back(k);
+      Rgb intensity = given.value_or(Rgb::Zero());
       size_t reference_samples = 0;
-      if (!lj.contains("intensity")) {
-        std::vector<double> estimates;
+      if (!given) {
+        std::vector<Rgb> estimates;
         for (size_t k : lit) {
           std::vector<DiffuseSample> samples;
-          white_samples(k, &samples);
-          const Vec3 at = photos[posed[k]].cam_from_world.Inverse() * Vec3(off[0], off[1], off[2]);
+          const Vec3 at = photos[posed[k]].cam_from_world.Inverse() * offset;
+          white_samples(k, at, &samples);
           AppendIntensityEstimates(samples, at, &estimates);
         }
-        if (estimates.empty())
-          throw Error(Msg(ctx, ": light ", light.id, ": no white board paper seen to measure the flash; give \"intensity\""));
+        if (estimates.empty()) throw no_paper(light.id, lit.size());
         reference_samples = estimates.size();
         intensity = MedianIntensity(estimates);
       }
@@ -463,22 +508,23 @@ nlohmann::json RunCapture(const CaptureJob& job) {
         Light f;
         f.id = 1000000 + int(i);  // ids of per-photo flashes; the photo is renumbered to it below
         f.type = LightType::kPoint;
-        f.position = photos[i].cam_from_world.Inverse() * Vec3(off[0], off[1], off[2]);
-        f.intensity = Rgb::Constant(intensity);
+        f.position = photos[i].cam_from_world.Inverse() * offset;
+        f.intensity = intensity;
         flash_of_photo[i] = f.id;
         lights.push_back(f);
         lights_report.push_back({{"id", f.id}, {"flash_of_photo", i},
-                                 {"position", {f.position.x(), f.position.y(), f.position.z()}}, {"intensity", intensity},
-                                 {"intensity_measured", !lj.contains("intensity")}, {"reference_samples", reference_samples}});
+                                 {"position", {f.position.x(), f.position.y(), f.position.z()}},
+                                 {"intensity", {intensity[0], intensity[1], intensity[2]}},
+                                 {"intensity_measured", !given}, {"reference_samples", reference_samples}});
       }
       continue;
     }
     if (kind != "point")
-      throw Error(Msg(ctx, ": light ", light.id, ": type must be \"point\" (calibrated by mirror balls) or \"flash\""));
+      throw Error(Msg(lctx, ": type must be \"point\" (calibrated by mirror balls) or \"flash\""));
     std::vector<Ray3> rays;
     std::vector<HighlightObservation> highlights;
-    for (size_t i : posed) {
-      if (photos[i].light != light.id) continue;
+    for (size_t k : lit) {
+      const size_t i = posed[k];
       for (size_t s = 0; s < spheres.size(); ++s) {
         Vec2 px;
         Ray3 ray;
@@ -489,27 +535,44 @@ nlohmann::json RunCapture(const CaptureJob& job) {
         }
       }
     }
-    if (rays.size() < 2) throw Error(Msg("capture: light ", light.id, ": only ", rays.size(), " mirror-sphere highlights found; need 2"));
+    if (rays.size() < 2)
+      throw Error(Msg(lctx, ": only ", rays.size(), " mirror-ball highlights found in its ", lit.size(),
+                      " photos; need 2 (give \"mirror_spheres\" and show a ball in at least two photos)"));
     // Rays intersected in 3-D for a start, then refined in the images.
     double ray_rms = 0;
     const Vec3 from_rays = NearestPointToRays(rays, &ray_rms);
     const LampRefineResult refined = RefineLampPosition(highlights, spheres, from_rays, LampRefineOptions{});
     light.position = refined.position;
-    // Intensity from the board's white paper in the photos of this light.
-    std::vector<DiffuseSample> samples;
-    for (size_t k = 0; k < posed.size(); ++k)
-      if (photos[posed[k]].light == light.id) white_samples(k, &samples);
-    const double I = IntensityFromDiffuse(samples, light.position);
     light.type = LightType::kPoint;
-    light.intensity = Rgb::Constant(I);
+    // Intensity: given, or from the board's white paper in its photos.
+    std::vector<DiffuseSample> samples;
+    for (size_t k : lit) white_samples(k, light.position, &samples);
+    std::optional<Rgb> measured;
+    std::vector<Rgb> estimates;
+    AppendIntensityEstimates(samples, light.position, &estimates);
+    if (!estimates.empty()) measured = MedianIntensity(estimates);
+    if (!given && !measured) throw no_paper(light.id, lit.size());
+    light.intensity = given ? *given : *measured;
     lights.push_back(light);
-    lights_report.push_back({{"id", light.id}, {"position", {light.position.x(), light.position.y(), light.position.z()}},
-                             {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms},
-                             {"position_from_rays", {from_rays.x(), from_rays.y(), from_rays.z()}},
-                             {"highlight_rms_px", {refined.initial_rms_px, refined.rms_px}}, {"intensity", I},
-                             {"reference_samples", samples.size()}});
+    nlohmann::json lr = {{"id", light.id}, {"position", {light.position.x(), light.position.y(), light.position.z()}},
+                         {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms},
+                         {"position_from_rays", {from_rays.x(), from_rays.y(), from_rays.z()}},
+                         {"highlight_rms_px", {refined.initial_rms_px, refined.rms_px}},
+                         {"intensity", {light.intensity[0], light.intensity[1], light.intensity[2]}},
+                         {"intensity_measured", !given}, {"reference_samples", estimates.size()},
+                         {"paper_pixels", {{"white", paper_counts.white}, {"hidden", paper_counts.hidden},
+                                           {"shadowed", paper_counts.shadowed}, {"near_ball", paper_counts.near_ball},
+                                           {"saturated", paper_counts.saturated}}}};
+    // A given intensity is checked against the paper where there is some.
+    if (given && measured) lr["intensity_from_paper"] = {(*measured)[0], (*measured)[1], (*measured)[2]};
+    lights_report.push_back(lr);
   }
-  (void)black;
+  report["paper_albedo"] = paper_albedo_known
+                               ? nlohmann::json{{"value", white}, {"given", true}}
+                               : nlohmann::json{{"value", white}, {"given", false},
+                                                {"note", Msg("white_albedo not given: measured lamp intensities assume the "
+                                                             "paper's albedo is ", kAssumedPaperAlbedo,
+                                                             ", so they and the material's albedos are relative to it")}};
   report["lights"] = lights_report;
   timer.Stop();
 
