@@ -541,12 +541,29 @@ nlohmann::json RunCapture(const CaptureJob& job) {
     // Rays intersected in 3-D for a start, then refined in the images.
     double ray_rms = 0;
     const Vec3 from_rays = NearestPointToRays(rays, &ray_rms);
-    const LampRefineResult refined = RefineLampPosition(highlights, spheres, from_rays, LampRefineOptions{});
+    const LampRefineResult refined =
+        RefineLampPositionMultiStart(highlights, spheres, rays, from_rays, LampRefineOptions{});
     light.position = refined.position;
     light.type = LightType::kPoint;
-    // Intensity: given, or from the board's white paper in its photos.
+    // The paper's shading fixes the lamp's distance, which the highlights
+    // of nearby balls leave loose (lamp_position.h); twice, so that the
+    // shadows are tested from the refined lamp.
     std::vector<DiffuseSample> samples;
     for (size_t k : lit) white_samples(k, light.position, &samples);
+    nlohmann::json paper_fit;
+    constexpr size_t kMinPaperForPosition = 200;
+    for (int round = 0; round < 2 && samples.size() >= kMinPaperForPosition; ++round) {
+      const LampPaperResult lp = RefineLampWithPaper(highlights, spheres, samples, light.position, LampPaperOptions{});
+      light.position = lp.position;
+      paper_fit = {{"highlight_rms_px", lp.highlight_rms_px}, {"paper_rms_relative", lp.paper_rms_relative},
+                   {"ambient_share", lp.ambient / std::max(1e-300, lp.ambient + lp.K / light.position.squaredNorm())}};
+      samples.clear();
+      paper_counts = PaperCounts{};
+      for (size_t k : lit) white_samples(k, light.position, &samples);
+      // Intensity from the lamp's share of the paper's light.
+      if (round == 1)
+        for (DiffuseSample& d : samples) d.value *= std::max(0.0, 1.0 - lp.ambient / std::max(1e-300, d.value.mean()));
+    }
     std::optional<Rgb> measured;
     std::vector<Rgb> estimates;
     AppendIntensityEstimates(samples, light.position, &estimates);
@@ -565,6 +582,7 @@ nlohmann::json RunCapture(const CaptureJob& job) {
                                            {"saturated", paper_counts.saturated}}}};
     // A given intensity is checked against the paper where there is some.
     if (given && measured) lr["intensity_from_paper"] = {(*measured)[0], (*measured)[1], (*measured)[2]};
+    if (!paper_fit.is_null()) lr["refined_on_paper_shading"] = paper_fit;
     lights_report.push_back(lr);
   }
   report["paper_albedo"] = paper_albedo_known

@@ -38,6 +38,7 @@ struct LampRefineOptions {
 struct LampRefineResult {
   Vec3 position = Vec3::Zero();
   double initial_rms_px = 0, rms_px = 0;
+  int rejected = 0;  // highlights left out as outliers (RefineLampPositionMultiStart)
 };
 
 // The point of `sphere` whose mirror reflection sends light from `lamp` to
@@ -48,6 +49,47 @@ void SpecularPoint(const T* eye, const T* lamp, const T* centre, double radius, 
 LampRefineResult RefineLampPosition(const std::vector<HighlightObservation>& observations,
                                     const std::vector<MirrorSphere>& spheres, const Vec3& initial,
                                     const LampRefineOptions& options);
+
+// The refinement from several starts, keeping the lowest highlight RMS: the
+// rays' 3-D intersection and points at 0.1 .. 6.4 m along every ray (their
+// mean per distance). With one ball, or balls close together, every
+// reflected ray passes within a ball's radius of the others at the ball, so
+// the least-squares intersection of slightly wrong rays is drawn to the ball
+// itself, a local minimum of the image residual far from the lamp. Then
+// highlights that the best lamp misses by more than 3 px and 5 times the
+// median (another bright spot taken for a highlight that lies outside the
+// photo or behind the object) are left out and the lamp refined again.
+LampRefineResult RefineLampPositionMultiStart(const std::vector<HighlightObservation>& observations,
+                                              const std::vector<MirrorSphere>& spheres, const std::vector<Ray3>& rays,
+                                              const Vec3& intersection, const LampRefineOptions& options);
+
+// The lamp refined jointly on its highlights and on the shading of the
+// board's white paper it lights: a Lambertian paper of unknown albedo shows
+// v = A + K cos / r^2 (K = albedo x intensity / pi; A an ambient term, both
+// unknown and linear, solved in closed form for each lamp position). With one
+// ball, or balls close together, the highlights fix the lamp's direction
+// from the ball well but its distance poorly (a pixel's quantisation moves
+// it by centimetres at half a metre); the paper's fall-off over the board
+// fixes the distance. Residuals: highlights in pixels over `highlight_px`
+// (Cauchy loss), paper values minus the model over `paper_relative` times
+// their median (its model error: vignetting, the paper's non-Lambertian
+// part). Paper samples whose v / g at the start is off the median by more
+// than a factor 0.7 .. 1.4 (shadows the start did not predict) are left out.
+struct LampPaperOptions {
+  double highlight_px = 0.3;    // pixel quantisation of a sub-pixel highlight, > 0
+  double paper_relative = 0.05; // > 0
+  int max_samples = 2000;       // paper samples used (evenly subsampled), >= 10
+  void Check() const;
+};
+struct LampPaperResult {
+  Vec3 position = Vec3::Zero();
+  double K = 0, ambient = 0;       // v = ambient + K cos / r^2
+  double highlight_rms_px = 0, paper_rms_relative = 0;
+};
+LampPaperResult RefineLampWithPaper(const std::vector<HighlightObservation>& observations,
+                                    const std::vector<MirrorSphere>& spheres,
+                                    const std::vector<DiffuseSample>& paper, const Vec3& initial,
+                                    const LampPaperOptions& options);
 
 }  // namespace svbrdf
 
