@@ -97,10 +97,13 @@ def read_obj(path):
             idx = [int(x.split("/")[0]) - 1 for x in p[1:]]
             for k in range(1, len(idx) - 1):
                 faces.append([idx[0], idx[k], idx[k + 1]])
-    v = np.array(verts)
-    v -= 0.5 * (v.min(0) + v.max(0))
-    v *= 0.5 / np.linalg.norm(v, axis=1).max()
-    return v, None, np.array(faces)
+    return normalize(np.array(verts)), None, np.array(faces)
+
+
+def normalize(v):
+    """Centres a point set's bounding box at the origin and scales it into a ball of radius 0.5."""
+    v = v - 0.5 * (v.min(0) + v.max(0))
+    return v * (0.5 / np.linalg.norm(v, axis=1).max())
 
 
 def vertex_normals(v, f):
@@ -111,14 +114,18 @@ def vertex_normals(v, f):
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
 
 
-def paint(v, rng, border):
-    """Three regions around well-separated seed vertices, soft borders of
-    width ~border metres: weight_i = softmax(-distance_i / border)."""
+def paint(v, rng, border, regions=3, jitter=None):
+    """`regions` regions around well-separated seed vertices (farthest point
+    first), soft borders of width ~border metres: weight_i =
+    softmax(-distance_i / border). `jitter(v)`, if given, returns a
+    (len(v), regions) field in metres added to the distances (noisy borders)."""
     seeds = [v[rng.integers(len(v))]]
-    for _ in range(2):
+    for _ in range(regions - 1):
         d = np.min([np.linalg.norm(v - s, axis=1) for s in seeds], axis=0)
         seeds.append(v[np.argmax(d)])
     d = np.stack([np.linalg.norm(v - s, axis=1) for s in seeds], axis=1)
+    if jitter is not None:
+        d = d + jitter(v)
     z = -(d - d.min(1, keepdims=True)) / border
     w = np.exp(z)
     return w / w.sum(1, keepdims=True)
@@ -172,6 +179,218 @@ def write_obj(path, v, uv, f, normals=None):
             out.write("f %s\n" % " ".join(corners))
 
 
+def fixed_materials():
+    """The three materials of this script's captures: (name, Mitsuba BSDF dict)."""
+    metal = {"type": "roughconductor", "distribution": "ggx", "alpha": 0.2,
+             "eta": {"type": "rgb", "value": COPPER_ETA}, "k": {"type": "rgb", "value": COPPER_K}}
+    plastic = {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1, "int_ior": 1.5, "ext_ior": 1.0,
+               "diffuse_reflectance": {"type": "rgb", "value": PLASTIC_BASE}, "nonlinear": False}
+    paint_bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": PAINT}}
+    return [("metal", metal), ("plastic", plastic), ("paint", paint_bsdf)]
+
+
+def blend_material(bsdfs):
+    """Nested `blendbsdf`s mixing the BSDF dicts by per-vertex weights: level i
+    blends bsdfs[i] with the rest by the attribute vertex_blend<i> (see
+    blend_attributes). One BSDF needs no blend."""
+    def level(i):
+        if i == len(bsdfs) - 1:
+            return bsdfs[i]
+        return {"type": "blendbsdf", "weight": {"type": "mesh_attribute", "name": "vertex_blend%d" % i},
+                "bsdf_0": bsdfs[i], "bsdf_1": level(i + 1)}
+    return level(0)
+
+
+def blend_attributes(w):
+    """Per-vertex weights (n, k) -> the k - 1 attributes of blend_material:
+    blend<i> = (w_i+1 + ... + w_k-1) / (w_i + ... + w_k-1), the share of the
+    later materials among those not taken by the earlier levels."""
+    attrs, prev = [], None
+    for i in range(w.shape[1] - 1):
+        rest = w[:, i + 1:].sum(1)
+        attrs.append(("vertex_blend%d" % i, rest if prev is None else rest / np.maximum(prev, 1e-9)))
+        prev = rest
+    return attrs
+
+
+def camera_side_dir(rng, eye):
+    """A random unit direction on the camera's side of the object."""
+    d = rng.normal(size=3)
+    d /= np.linalg.norm(d)
+    return -d if d @ eye < 0 else d
+
+
+def alternate_flash(k, held):
+    """This script's light plan: odd training photos take a flash, the rest a lamp."""
+    return "flash" if (k % 2 == 1) and not held else "point"
+
+
+def render_capture(out, v, uv, f, w, materials, rng, *, views=40, heldout=8, width=320, height=240, spp=32,
+                   bounces=0, noise=0.01, seed=7, normals="mitsuba", light_kind=alternate_flash,
+                   point_intensity=10.0, flash_intensity=6.0, directional_irradiance=1.6, camera_distance=2.2,
+                   light_distance=2.5, ceiling_spp=0, truth_extra=None, truth_files=None, log=print):
+    """Renders a capture of mesh (v, uv, f) painted with `materials` [(name,
+    Mitsuba BSDF dict)] mixed by per-vertex weights w (n, len(materials)) into
+    the folder `out` (dataset contract, held-out views in heldout/, truth/).
+
+    Per photo k (views + heldout of them): a camera on a sphere of radius
+    camera_distance looking at the origin, and a light of kind
+    light_kind(k, held): "point" (a lamp at light_distance on the camera's side,
+    W/sr), "flash" (a point light beside the lens, in the camera frame) or
+    "directional" (from the camera's side). rng draws poses, lights and the
+    relative noise. ceiling_spp > 0 renders every held-out view once more with
+    an independent sampler seed and no added noise into truth/ceiling/ (the
+    truth's own relight, for a ceiling). truth_files: {name: JSON object}
+    written into truth/. Returns the seconds taken."""
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    t0 = time.time()
+    n = vertex_normals(v, f)
+    tmp = out.rstrip("/") + ".partial"
+    shutil.rmtree(tmp, ignore_errors=True)
+    for d in ("images", "masks", "heldout/images", "heldout/masks", "truth"):
+        os.makedirs(os.path.join(tmp, d))
+    if ceiling_spp:
+        os.makedirs(os.path.join(tmp, "truth", "ceiling", "images"))
+    # Without normals when Mitsuba computes its own (a reader computes the
+    # same angle-weighted ones); with them (vn) when they are this script's.
+    write_obj(os.path.join(tmp, "mesh.obj"), v, uv, f, n if normals == "area" else None)
+    np.save(os.path.join(tmp, "truth", "vertex_weights.npy"), w)
+    material = blend_material([b for _, b in materials])
+
+    def painted_mesh(bsdf, emitter=None):
+        """The object as a Mitsuba mesh with the blend weights as vertex attributes."""
+        props = mi.Properties()
+        props["bsdf"] = mi.load_dict(bsdf)
+        if emitter is not None:
+            props["emitter"] = mi.load_dict(emitter)
+        m = mi.Mesh("object", len(v), len(f), props=props, has_vertex_normals=True)
+        p = mi.traverse(m)
+        p["vertex_positions"] = v.astype(np.float32).ravel().tolist()
+        p["vertex_normals"] = n.astype(np.float32).ravel().tolist()
+        p["faces"] = f.astype(np.uint32).ravel().tolist()
+        p.update()
+        if normals == "mitsuba":
+            m.recompute_vertex_normals()
+        for name, values in blend_attributes(w):
+            m.add_attribute(name, 1, values.astype(np.float32).tolist())
+        return m
+
+    shaded = painted_mesh(material)
+    coverage_mesh = painted_mesh({"type": "diffuse", "reflectance": 0.0}, {"type": "area", "radiance": 1.0})
+
+    fx = 1.2 * width
+    cx, cy = width / 2, height / 2
+    fov = math.degrees(2 * math.atan(width / 2 / fx))
+    flash_offset = np.array([0.06, -0.04, 0.0])
+    total = views + heldout
+
+    def sample_dir():
+        d = rng.normal(size=3)
+        return d / np.linalg.norm(d)
+
+    sets = {"": {"lights": [], "images": []}, "heldout": {"lights": [], "images": []}}
+    for k in range(total):
+        held = k >= views
+        s = sets["heldout" if held else ""]
+        idx = len(s["images"])
+        eye = camera_distance * sample_dir()
+        r, t = look_at_pose(eye, np.zeros(3), rng)
+        kind = light_kind(k, held)
+        if kind == "flash":
+            light_world = eye + r.T @ flash_offset
+            light = {"id": idx + 1, "type": "point", "frame": "camera", "position": flash_offset.tolist(),
+                     "intensity": [flash_intensity] * 3}
+            mi_light = {"type": "point", "position": light_world.tolist(),
+                        "intensity": {"type": "rgb", "value": [flash_intensity] * 3}}
+        elif kind == "point":
+            # A lamp on the camera's side of the object, so the view sees lit surface.
+            light_world = light_distance * camera_side_dir(rng, eye)
+            light = {"id": idx + 1, "type": "point", "position": light_world.tolist(),
+                     "intensity": [point_intensity] * 3}
+            mi_light = {"type": "point", "position": light_world.tolist(),
+                        "intensity": {"type": "rgb", "value": [point_intensity] * 3}}
+        elif kind == "directional":
+            to_light = camera_side_dir(rng, eye)
+            light = {"id": idx + 1, "type": "directional", "to_light": to_light.tolist(),
+                     "irradiance": [directional_irradiance] * 3}
+            mi_light = {"type": "directional", "direction": (-to_light).tolist(),
+                        "irradiance": {"type": "rgb", "value": [directional_irradiance] * 3}}
+        else:
+            raise ValueError("unknown light kind %r" % kind)
+        s["lights"].append(light)
+        name = "images/%04d.exr" % idx
+        s["images"].append({"file": name, "camera": 1, "light": idx + 1,
+                            "cam_from_world": {"q": quat(r), "t": t.tolist()}, "exposure": 1.0,
+                            "mask": "masks/%04d.png" % idx})
+
+        # Mitsuba's camera frame is x left, y up, z forward: ours turned 180 deg about z.
+        world_from_cam = np.eye(4)
+        world_from_cam[:3, :3] = r.T @ np.diag([-1.0, -1.0, 1.0])
+        world_from_cam[:3, 3] = eye
+        sensor = {"type": "perspective", "fov": fov, "fov_axis": "x",
+                  "to_world": mi.ScalarTransform4f(world_from_cam.tolist()),
+                  "film": {"type": "hdrfilm", "width": width, "height": height,
+                           "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+                  "sampler": {"type": "independent", "sample_count": spp, "seed": seed * 1000 + k}}
+
+        def render(sensor):
+            scene = mi.load_dict({
+                "type": "scene",
+                "integrator": {"type": "path", "max_depth": bounces + 2, "hide_emitters": True},
+                "sensor": sensor, "light": mi_light, "object": shaded,
+            })
+            return np.array(mi.render(scene), dtype=np.float64)[:, :, :3]
+
+        img = render(sensor)
+        if noise > 0:
+            img *= 1 + noise * rng.normal(size=img.shape)
+        img = np.maximum(img, 0).astype(np.float32)
+        cover_sensor = dict(sensor)
+        cover_sensor["sampler"] = {"type": "independent", "sample_count": 16, "seed": k}
+        cover = mi.load_dict({
+            "type": "scene", "integrator": {"type": "direct"}, "sensor": cover_sensor,
+            "object": coverage_mesh,
+        })
+        coverage = np.array(mi.render(cover))[:, :, 0]
+        mask = np.where(coverage >= 0.5, 255, 0).astype(np.uint8)
+        folder = os.path.join(tmp, "heldout") if held else tmp
+        mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(os.path.join(folder, name))
+        mi.Bitmap(mask, pixel_format=mi.Bitmap.PixelFormat.Y).write(os.path.join(folder, "masks/%04d.png" % idx))
+        if held and ceiling_spp:
+            # The truth rendered again: an independent seed, no added noise.
+            again = dict(sensor)
+            again["sampler"] = {"type": "independent", "sample_count": ceiling_spp, "seed": 10 ** 6 + seed * 1000 + k}
+            mi.Bitmap(render(again).astype(np.float32), pixel_format=mi.Bitmap.PixelFormat.RGB).write(
+                os.path.join(tmp, "truth", "ceiling", name))
+        log("  rendered %s%s  (%d/%d, %.0f s)" % ("heldout/" if held else "", name, k + 1, total, time.time() - t0))
+
+    camera = {"id": 1, "model": "PINHOLE", "width": width, "height": height, "params": [fx, fx, cx, cy]}
+    truth = {"renderer": "mitsuba %s scalar_rgb, path max_depth %d, %d spp" % (mi.__version__, bounces + 2, spp),
+             "materials": dict(materials),
+             "vertex_weights": "truth/vertex_weights.npy (%s per vertex of mesh.obj)" % ", ".join(
+                 name for name, _ in materials),
+             "heldout_scene": "heldout/scene.json"}
+    if ceiling_spp:
+        truth["ceiling"] = ("truth/ceiling/: the held-out views rendered again by Mitsuba (%d spp, independent "
+                            "seed, no added noise)" % ceiling_spp)
+    truth.update(truth_extra or {})
+    for key, s in sets.items():
+        doc = {"format": "svbrdf-scene/1", "mesh": "mesh.obj" if key == "" else "../mesh.obj",
+               "images_color_space": "linear", "cameras": [camera], "lights": s["lights"], "images": s["images"]}
+        if key == "":
+            doc["ground_truth"] = truth
+        with open(os.path.join(tmp, key, "scene.json"), "w") as out_file:
+            json.dump(doc, out_file, indent=1)
+    for name, obj in (truth_files or {}).items():
+        with open(os.path.join(tmp, "truth", name), "w") as out_file:
+            json.dump(obj, out_file, indent=1)
+    if os.path.exists(out):
+        shutil.rmtree(out)
+    os.rename(tmp, out)
+    return time.time() - t0
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--shape", default="sphere", help="sphere | torus | path to an OBJ (its UVs are dropped)")
@@ -192,11 +411,7 @@ def main():
                          "PLY loaders compute them for a file without normals) or area-weighted")
     args = ap.parse_args()
 
-    import mitsuba as mi
-    mi.set_variant("scalar_rgb")
     rng = np.random.default_rng(args.seed)
-    t0 = time.time()
-
     if args.shape == "sphere":
         v, uv, f = sphere(args.detail)
     elif args.shape == "torus":
@@ -205,140 +420,12 @@ def main():
         v, uv, f = read_obj(args.shape)
     if args.no_uvs:
         uv = None
-    n = vertex_normals(v, f)
     w = paint(v, rng, args.border)
-
-    tmp = args.out.rstrip("/") + ".partial"
-    shutil.rmtree(tmp, ignore_errors=True)
-    for d in ("images", "masks", "heldout/images", "heldout/masks", "truth"):
-        os.makedirs(os.path.join(tmp, d))
-    # Without normals when Mitsuba computes its own (a reader computes the
-    # same angle-weighted ones); with them (vn) when they are this script's.
-    write_obj(os.path.join(tmp, "mesh.obj"), v, uv, f, n if args.normals == "area" else None)
-    np.save(os.path.join(tmp, "truth", "vertex_weights.npy"), w)
-
-    metal = {"type": "roughconductor", "distribution": "ggx", "alpha": 0.2,
-             "eta": {"type": "rgb", "value": COPPER_ETA}, "k": {"type": "rgb", "value": COPPER_K}}
-    plastic = {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1, "int_ior": 1.5, "ext_ior": 1.0,
-               "diffuse_reflectance": {"type": "rgb", "value": PLASTIC_BASE}, "nonlinear": False}
-    paint_bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": PAINT}}
-    material = {"type": "blendbsdf", "weight": {"type": "mesh_attribute", "name": "vertex_w12"},
-                "bsdf_0": metal,
-                "bsdf_1": {"type": "blendbsdf", "weight": {"type": "mesh_attribute", "name": "vertex_w2"},
-                           "bsdf_0": plastic, "bsdf_1": paint_bsdf}}
-
-    def painted_mesh(bsdf, emitter=None):
-        """The object as a Mitsuba mesh with the blend weights as vertex attributes."""
-        props = mi.Properties()
-        props["bsdf"] = mi.load_dict(bsdf)
-        if emitter is not None:
-            props["emitter"] = mi.load_dict(emitter)
-        m = mi.Mesh("object", len(v), len(f), props=props, has_vertex_normals=True)
-        p = mi.traverse(m)
-        p["vertex_positions"] = v.astype(np.float32).ravel().tolist()
-        p["vertex_normals"] = n.astype(np.float32).ravel().tolist()
-        p["faces"] = f.astype(np.uint32).ravel().tolist()
-        p.update()
-        if args.normals == "mitsuba":
-            m.recompute_vertex_normals()
-        w12 = w[:, 1] + w[:, 2]
-        m.add_attribute("vertex_w12", 1, w12.astype(np.float32).tolist())
-        m.add_attribute("vertex_w2", 1, (w[:, 2] / np.maximum(w12, 1e-9)).astype(np.float32).tolist())
-        return m
-
-    shaded = painted_mesh(material)
-    coverage_mesh = painted_mesh({"type": "diffuse", "reflectance": 0.0}, {"type": "area", "radiance": 1.0})
-
-    fx = 1.2 * args.width
-    cx, cy = args.width / 2, args.height / 2
-    fov = math.degrees(2 * math.atan(args.width / 2 / fx))
-    flash_offset = np.array([0.06, -0.04, 0.0])
-    total = args.views + args.heldout
-
-    def sample_dir():
-        d = rng.normal(size=3)
-        return d / np.linalg.norm(d)
-
-    sets = {"": {"lights": [], "images": []}, "heldout": {"lights": [], "images": []}}
-    for k in range(total):
-        held = k >= args.views
-        s = sets["heldout" if held else ""]
-        idx = len(s["images"])
-        eye = 2.2 * sample_dir()
-        r, t = look_at_pose(eye, np.zeros(3), rng)
-        flash = (k % 2 == 1) and not held
-        if flash:
-            light_world = eye + r.T @ flash_offset
-            light = {"id": idx + 1, "type": "point", "frame": "camera", "position": flash_offset.tolist(),
-                     "intensity": [6.0, 6.0, 6.0]}
-            intensity = 6.0
-        else:
-            # A lamp on the camera's side of the object, so the view sees lit surface.
-            d = sample_dir()
-            if d @ eye < 0:
-                d = -d
-            light_world = 2.5 * d
-            light = {"id": idx + 1, "type": "point", "position": light_world.tolist(), "intensity": [10.0] * 3}
-            intensity = 10.0
-        s["lights"].append(light)
-        name = "images/%04d.exr" % idx
-        s["images"].append({"file": name, "camera": 1, "light": idx + 1,
-                            "cam_from_world": {"q": quat(r), "t": t.tolist()}, "exposure": 1.0,
-                            "mask": "masks/%04d.png" % idx})
-
-        # Mitsuba's camera frame is x left, y up, z forward: ours turned 180 deg about z.
-        world_from_cam = np.eye(4)
-        world_from_cam[:3, :3] = r.T @ np.diag([-1.0, -1.0, 1.0])
-        world_from_cam[:3, 3] = eye
-        sensor = {"type": "perspective", "fov": fov, "fov_axis": "x",
-                  "to_world": mi.ScalarTransform4f(world_from_cam.tolist()),
-                  "film": {"type": "hdrfilm", "width": args.width, "height": args.height,
-                           "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-                  "sampler": {"type": "independent", "sample_count": args.spp, "seed": args.seed * 1000 + k}}
-        scene = mi.load_dict({
-            "type": "scene",
-            "integrator": {"type": "path", "max_depth": args.bounces + 2, "hide_emitters": True},
-            "sensor": sensor,
-            "light": {"type": "point", "position": light_world.tolist(),
-                      "intensity": {"type": "rgb", "value": [intensity] * 3}},
-            "object": shaded,
-        })
-        img = np.array(mi.render(scene), dtype=np.float64)[:, :, :3]
-        if args.noise > 0:
-            img *= 1 + args.noise * rng.normal(size=img.shape)
-        img = np.maximum(img, 0).astype(np.float32)
-        cover_sensor = dict(sensor)
-        cover_sensor["sampler"] = {"type": "independent", "sample_count": 16, "seed": k}
-        cover = mi.load_dict({
-            "type": "scene", "integrator": {"type": "direct"}, "sensor": cover_sensor,
-            "object": coverage_mesh,
-        })
-        coverage = np.array(mi.render(cover))[:, :, 0]
-        mask = np.where(coverage >= 0.5, 255, 0).astype(np.uint8)
-        folder = os.path.join(tmp, "heldout") if held else tmp
-        mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(os.path.join(folder, name))
-        mi.Bitmap(mask, pixel_format=mi.Bitmap.PixelFormat.Y).write(os.path.join(folder, "masks/%04d.png" % idx))
-        print("  rendered %s%s  (%d/%d, %.0f s)" % ("heldout/" if held else "", name, k + 1, total, time.time() - t0),
-              flush=True)
-
-    camera = {"id": 1, "model": "PINHOLE", "width": args.width, "height": args.height, "params": [fx, fx, cx, cy]}
-    truth = {"renderer": "mitsuba %s scalar_rgb, path max_depth %d, %d spp" % (mi.__version__, args.bounces + 2,
-                                                                                   args.spp),
-             "materials": {"metal": metal, "plastic": plastic, "paint": paint_bsdf},
-             "vertex_weights": "truth/vertex_weights.npy (metal, plastic, paint per vertex of mesh.obj)",
-             "heldout_scene": "heldout/scene.json", "options": vars(args)}
-    for key, s in sets.items():
-        doc = {"format": "svbrdf-scene/1", "mesh": "mesh.obj" if key == "" else "../mesh.obj",
-               "images_color_space": "linear", "cameras": [camera], "lights": s["lights"], "images": s["images"]}
-        if key == "":
-            doc["ground_truth"] = truth
-        with open(os.path.join(tmp, key, "scene.json"), "w") as out:
-            json.dump(doc, out, indent=1)
-    if os.path.exists(args.out):
-        shutil.rmtree(args.out)
-    os.rename(tmp, args.out)
-    print("capture: %s/scene.json (%d views, %d held out) in %.0f s" % (args.out, args.views, args.heldout,
-                                                                        time.time() - t0))
+    seconds = render_capture(args.out, v, uv, f, w, fixed_materials(), rng, views=args.views, heldout=args.heldout,
+                             width=args.width, height=args.height, spp=args.spp, bounces=args.bounces,
+                             noise=args.noise, seed=args.seed, normals=args.normals,
+                             truth_extra={"options": vars(args)}, log=lambda m: print(m, flush=True))
+    print("capture: %s/scene.json (%d views, %d held out) in %.0f s" % (args.out, args.views, args.heldout, seconds))
 
 
 if __name__ == "__main__":

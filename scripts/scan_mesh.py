@@ -81,6 +81,15 @@ def decimate(pos, faces, target_faces):
     return p[used], remap[f]
 
 
+def load(name, target_faces=0):
+    """Positions and triangles of CGAL's data/meshes/<name>.off, decimated to at most target_faces (0 = all)."""
+    member = open_data().extractfile("data/meshes/%s.off" % name)
+    pos, faces = read_off(io.TextIOWrapper(member, encoding="ascii", errors="replace").read())
+    if target_faces and len(faces) > target_faces:
+        pos, faces = decimate(pos, faces, target_faces)
+    return pos, faces
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("name", nargs="?", help="mesh name in CGAL's data/meshes (e.g. bunny00, armadillo)")
@@ -96,10 +105,7 @@ def main():
         return
     if not a.name or not a.out:
         ap.error("name and --out are needed")
-    member = tar.extractfile("data/meshes/%s.off" % a.name)
-    pos, faces = read_off(io.TextIOWrapper(member, encoding="ascii", errors="replace").read())
-    if a.faces and len(faces) > a.faces:
-        pos, faces = decimate(pos, faces, a.faces)
+    pos, faces = load(a.name, a.faces)
     with open(a.out, "w") as out:
         out.write("# %s from CGAL's data (Debian libcgal-demo), %d triangles\n" % (a.name, len(faces)))
         out.write("".join("v %.6g %.6g %.6g\n" % tuple(p) for p in pos))
