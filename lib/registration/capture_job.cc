@@ -400,33 +400,59 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   Mesh mesh = LoadMesh(mesh_file);
   const Rigid3 rough = PoseFromJson(Field<nlohmann::json>(mesh_j, "world_from_mesh", ctx + ": mesh"), ctx + ": mesh.world_from_mesh");
   const std::string mask_mode = desc.value("masks", std::string("given"));
+  if (mask_mode != "given" && mask_mode != "grabcut")
+    throw Error(Msg(ctx, ": masks: expected \"given\" or \"grabcut\", got \"", mask_mode, "\""));
+  const bool grabcut = mask_mode == "grabcut";
   std::vector<SilhouetteView> sviews;
   for (size_t i : posed) {
     SilhouetteView v{camera, photos[i].cam_from_world, Image()};
-    if (mask_mode == "given") {
+    if (!grabcut) {
       if (photos[i].mask.empty()) throw Error(Msg(ctx, ": photos[", i, "]: masks are \"given\" but the photo has no mask"));
       v.mask = ReadImage(path(photos[i].mask));
-    } else if (mask_mode == "grabcut") {
-      // The undecided band must cover the rough placement's error (cm: tens
-      // of pixels); 4 % of the image diagonal.
-      const int margin = std::max(6, int(0.04 * std::hypot(camera.width, camera.height)));
-      v.mask = GrabCutMask(photos[i].hdr.radiance, RenderSilhouette(mesh, rough, camera, photos[i].cam_from_world),
-                           margin);
-    } else {
-      throw Error(Msg(ctx, ": masks: expected \"given\" or \"grabcut\", got \"", mask_mode, "\""));
     }
     sviews.push_back(std::move(v));
   }
+  // GrabCut seeded by the mesh at `placement`; the undecided band covers
+  // the placement's error: 4 % of the image diagonal for the rough one (cm:
+  // tens of pixels), 1 % once registered.
+  const double diagonal = std::hypot(camera.width, camera.height);
+  auto grabcut_masks = [&](const Rigid3& placement, int margin) {
+    ParallelFor(long(posed.size()), job.threads, [&](long k) {
+      const Photo& ph = photos[posed[k]];
+      sviews[k].mask = GrabCutMask(ph.hdr.radiance, RenderSilhouette(mesh, placement, camera, ph.cam_from_world), margin);
+    });
+  };
+  if (grabcut) grabcut_masks(rough, std::max(6, int(0.04 * diagonal)));
   SilhouetteOptions so;
   so.outer_iterations = job.silhouette_iterations;
   so.threads = job.threads;
   so.progress = job.progress;
-  const SilhouetteResult reg = AlignSilhouettes(mesh, rough, sviews, so);
+  SilhouetteResult reg = AlignSilhouettes(mesh, rough, sviews, so);
   nlohmann::json iou = nlohmann::json::array();
   for (size_t k = 0; k < posed.size(); ++k)
     iou.push_back({{"photo", posed[k]}, {"before", reg.iou_before[k]}, {"after", reg.iou_after[k]}});
-  report["registration"] = {{"world_from_mesh", PoseJson(reg.world_from_object)}, {"masks", mask_mode},
-                            {"contour_distance_px", reg.mean_distance_px}, {"mask_iou", iou}};
+  report["registration"] = {{"masks", mask_mode}};
+  if (grabcut) {
+    // Second pass: GrabCut seeded by the registered mesh, whose band can be
+    // narrow now (the first pass's wide band lets board texture and the
+    // dim background in), then the registration again from there.
+    report["registration"]["first_pass"] = {{"world_from_mesh", PoseJson(reg.world_from_object)}, {"mask_iou", iou}};
+    grabcut_masks(reg.world_from_object, std::max(4, int(0.01 * diagonal)));
+    reg = AlignSilhouettes(mesh, reg.world_from_object, sviews, so);
+    iou = nlohmann::json::array();
+    for (size_t k = 0; k < posed.size(); ++k)
+      iou.push_back({{"photo", posed[k]}, {"before", reg.iou_before[k]}, {"after", reg.iou_after[k]}});
+  }
+  // mask_iou: each photo's mask (given, or GrabCut's) against the
+  // registered mesh's silhouette, before and after registration.
+  report["registration"]["world_from_mesh"] = PoseJson(reg.world_from_object);
+  report["registration"]["contour_distance_px"] = reg.mean_distance_px;
+  report["registration"]["mask_iou"] = iou;
+  // The capture's masks: the given ones; with GrabCut, the registered
+  // mesh's silhouette (GrabCut's edges follow colour, the mesh's the object).
+  if (grabcut)
+    for (size_t k = 0; k < posed.size(); ++k)
+      sviews[k].mask = RenderSilhouette(mesh, reg.world_from_object, camera, photos[posed[k]].cam_from_world);
   timer.Stop();
 
   // 4. Lights: mirror-sphere highlights -> position; board albedo -> intensity.

@@ -139,6 +139,7 @@ struct PaperFit {
     return cos / r2;
   }
   double typical = 1;  // median value: residuals are relative to it
+  bool with_ambient = false;
   // Least squares of v = A + K g; A clamped at 0.
   template <class T>
   void Solve(const T* p, T* A, T* K) const {
@@ -151,7 +152,7 @@ struct PaperFit {
     const T det = s00 * s11 - s01 * s01;
     *A = (s11 * b0 - s01 * b1) / det;
     *K = (s00 * b1 - s01 * b0) / det;
-    if (*A < T(0)) *A = T(0), *K = b1 / s11;
+    if (*A < T(0) || !with_ambient) *A = T(0), *K = b1 / s11;
   }
 };
 
@@ -235,6 +236,7 @@ LampPaperResult RefineLampWithPaper(const std::vector<HighlightObservation>& obs
   so.linear_solver_type = ceres::DENSE_QR;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  fit.with_ambient = true;
   fit.Solve(r.position.data(), &r.ambient, &r.K);
   r.highlight_rms_px = obs.empty() ? 0.0 : Rms(obs, spheres, r.position);
   double sum = 0;

@@ -65,16 +65,19 @@ LampRefineResult RefineLampPositionMultiStart(const std::vector<HighlightObserva
 
 // The lamp refined jointly on its highlights and on the shading of the
 // board's white paper it lights: a Lambertian paper of unknown albedo shows
-// v = A + K cos / r^2 (K = albedo x intensity / pi; A an ambient term, both
-// unknown and linear, solved in closed form for each lamp position). With one
-// ball, or balls close together, the highlights fix the lamp's direction
-// from the ball well but its distance poorly (a pixel's quantisation moves
-// it by centimetres at half a metre); the paper's fall-off over the board
-// fixes the distance. Residuals: highlights in pixels over `highlight_px`
-// (Cauchy loss), paper values minus the model over `paper_relative` times
-// their median (its model error: vignetting, the paper's non-Lambertian
-// part). Paper samples whose v / g at the start is off the median by more
-// than a factor 0.7 .. 1.4 (shadows the start did not predict) are left out.
+// v = K cos / r^2 (K = albedo x intensity / pi, solved in closed form for
+// each lamp position). With one ball, or balls close together, the
+// highlights fix the lamp's direction from the ball well but its distance
+// poorly (a pixel's quantisation moves it by centimetres at half a metre);
+// the paper's fall-off over the board fixes the distance. Residuals:
+// highlights in pixels over `highlight_px` (Cauchy loss), paper values
+// minus the model over `paper_relative` times their median (its model
+// error: vignetting, ambient light, the paper's non-Lambertian part). Paper
+// samples whose v / g at the start is off the median by more than a factor
+// 0.7 .. 1.4 (shadows the start did not predict) are left out. An ambient
+// term A in v = A + K cos / r^2 trades off against the distance when the
+// paper seen spans little of the fall-off (a few photos): it is solved only
+// at the final position, for the intensity and the report.
 struct LampPaperOptions {
   double highlight_px = 0.3;    // pixel quantisation of a sub-pixel highlight, > 0
   double paper_relative = 0.05; // > 0
@@ -83,7 +86,7 @@ struct LampPaperOptions {
 };
 struct LampPaperResult {
   Vec3 position = Vec3::Zero();
-  double K = 0, ambient = 0;       // v = ambient + K cos / r^2
+  double K = 0, ambient = 0;       // v = ambient + K cos / r^2 at the final position
   double highlight_rms_px = 0, paper_rms_relative = 0;
 };
 LampPaperResult RefineLampWithPaper(const std::vector<HighlightObservation>& observations,
