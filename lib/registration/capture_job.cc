@@ -601,6 +601,8 @@ nlohmann::json RunCapture(const CaptureJob& job) {
                          {"rays", rays.size()}, {"ray_rms_mm", 1e3 * ray_rms},
                          {"position_from_rays", {from_rays.x(), from_rays.y(), from_rays.z()}},
                          {"highlight_rms_px", {refined.initial_rms_px, refined.rms_px}},
+                         {"highlights_rejected", refined.rejected},
+                         {"position_from_highlights", {refined.position.x(), refined.position.y(), refined.position.z()}},
                          {"intensity", {light.intensity[0], light.intensity[1], light.intensity[2]}},
                          {"intensity_measured", !given}, {"reference_samples", estimates.size()},
                          {"paper_pixels", {{"white", paper_counts.white}, {"hidden", paper_counts.hidden},
