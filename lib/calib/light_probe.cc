@@ -107,10 +107,4 @@ Rgb MedianIntensity(const std::vector<Rgb>& est) {
   return out;
 }
 
-Rgb IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light) {
-  std::vector<Rgb> est;
-  AppendIntensityEstimates(samples, light, &est);
-  return MedianIntensity(est);
-}
-
 }  // namespace svbrdf

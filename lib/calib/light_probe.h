@@ -45,12 +45,11 @@ struct DiffuseSample {
   double exposure = 1, albedo = 0;
   Vec3 point = Vec3::Zero(), normal = Vec3::UnitZ();
 };
-// Median point-light intensity per channel (W/sr in the image's units) from
-// reference samples; throws Error with no usable sample.
-Rgb IntensityFromDiffuse(const std::vector<DiffuseSample>& samples, const Vec3& light_position);
-// The same in parts, for a light that moves between photos (a flash): each
-// usable sample's estimate appended (grazing, < 0.2 cosine, or black samples
-// skipped), then the per-channel median (throws Error when empty).
+// Point-light intensity per channel (W/sr in the image's units) from
+// reference samples, in parts so that a light that moves between photos (a
+// flash) pools them: each usable sample's estimate appended (grazing,
+// < 0.2 cosine, or black samples skipped), then the per-channel median
+// (throws Error when empty).
 void AppendIntensityEstimates(const std::vector<DiffuseSample>& samples, const Vec3& light_position,
                               std::vector<Rgb>* estimates);
 Rgb MedianIntensity(const std::vector<Rgb>& estimates);

@@ -428,31 +428,39 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   so.threads = job.threads;
   so.progress = job.progress;
   SilhouetteResult reg = AlignSilhouettes(mesh, rough, sviews, so);
-  nlohmann::json iou = nlohmann::json::array();
-  for (size_t k = 0; k < posed.size(); ++k)
-    iou.push_back({{"photo", posed[k]}, {"before", reg.iou_before[k]}, {"after", reg.iou_after[k]}});
+  auto iou_json = [&](const SilhouetteResult& r) {
+    nlohmann::json iou = nlohmann::json::array();
+    for (size_t k = 0; k < posed.size(); ++k)
+      iou.push_back({{"photo", posed[k]}, {"before", r.iou_before[k]}, {"after", r.iou_after[k]}});
+    return iou;
+  };
   report["registration"] = {{"masks", mask_mode}};
   if (grabcut) {
     // Second pass: GrabCut seeded by the registered mesh, whose band can be
     // narrow now (the first pass's wide band lets board texture and the
     // dim background in), then the registration again from there.
-    report["registration"]["first_pass"] = {{"world_from_mesh", PoseJson(reg.world_from_object)}, {"mask_iou", iou}};
+    report["registration"]["first_pass"] = {{"world_from_mesh", PoseJson(reg.world_from_object)},
+                                            {"mask_iou", iou_json(reg)}};
     grabcut_masks(reg.world_from_object, std::max(4, int(0.01 * diagonal)));
     reg = AlignSilhouettes(mesh, reg.world_from_object, sviews, so);
-    iou = nlohmann::json::array();
-    for (size_t k = 0; k < posed.size(); ++k)
-      iou.push_back({{"photo", posed[k]}, {"before", reg.iou_before[k]}, {"after", reg.iou_after[k]}});
   }
   // mask_iou: each photo's mask (given, or GrabCut's) against the
   // registered mesh's silhouette, before and after registration.
   report["registration"]["world_from_mesh"] = PoseJson(reg.world_from_object);
   report["registration"]["contour_distance_px"] = reg.mean_distance_px;
-  report["registration"]["mask_iou"] = iou;
+  report["registration"]["mask_iou"] = iou_json(reg);
+  // The registered mesh in the world frame with its own normals turned with
+  // it (recomputing could change their weighting), and its silhouettes.
+  Mesh world_mesh = mesh;
+  for (Vec3& p : world_mesh.positions) p = reg.world_from_object * p;
+  for (Vec3& n : world_mesh.normals) n = reg.world_from_object.rotation * n;
+  std::vector<Image> silhouettes;
+  for (size_t k = 0; k < posed.size(); ++k)
+    silhouettes.push_back(RenderSilhouette(mesh, reg.world_from_object, camera, photos[posed[k]].cam_from_world));
   // The capture's masks: the given ones; with GrabCut, the registered
   // mesh's silhouette (GrabCut's edges follow colour, the mesh's the object).
   if (grabcut)
-    for (size_t k = 0; k < posed.size(); ++k)
-      sviews[k].mask = RenderSilhouette(mesh, reg.world_from_object, camera, photos[posed[k]].cam_from_world);
+    for (size_t k = 0; k < posed.size(); ++k) sviews[k].mask = silhouettes[k];
   timer.Stop();
 
   // 4. Lights: mirror-sphere highlights -> position; board albedo -> intensity.
@@ -469,14 +477,12 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   // The white paper as a diffuse reference; its texture fine enough that a
   // pixel's footprint spans several texels.
   const BoardTexture tex = DrawBoard(board, 64);
-  Mesh registered = mesh;
-  for (Vec3& p : registered.positions) p = reg.world_from_object * p;
-  const RayTracer occluder(registered);
+  const RayTracer occluder(world_mesh);
   // The object's pixels: its mask and its registered silhouette, widened by
   // the blur of its edge.
   std::vector<Image> object_pixels;
   for (size_t k = 0; k < posed.size(); ++k) {
-    Image m = RenderSilhouette(mesh, reg.world_from_object, camera, photos[posed[k]].cam_from_world);
+    Image m = silhouettes[k];
     for (size_t p = 0; p < m.pixels.size(); ++p) m.pixels[p] = std::max(m.pixels[p], sviews[k].mask.pixels[p]);
     object_pixels.push_back(DilateMask(m, 2));
   }
@@ -582,7 +588,7 @@ nlohmann::json RunCapture(const CaptureJob& job) {
       const LampPaperResult lp = RefineLampWithPaper(highlights, spheres, samples, light.position, LampPaperOptions{});
       light.position = lp.position;
       paper_fit = {{"highlight_rms_px", lp.highlight_rms_px}, {"paper_rms_relative", lp.paper_rms_relative},
-                   {"ambient_share", lp.ambient / std::max(1e-300, lp.ambient + lp.K / light.position.squaredNorm())}};
+                   {"ambient_share", lp.ambient_share}};
       samples.clear();
       paper_counts = PaperCounts{};
       for (size_t k : lit) white_samples(k, light.position, &samples);
@@ -627,11 +633,6 @@ nlohmann::json RunCapture(const CaptureJob& job) {
   OutputFolder out(job.out_dir);  // complete or absent, also on errors and signals
   const fs::path tmp = out.path();
   for (const char* d : {"images", "masks", "saturation", "report"}) fs::create_directories(tmp / d);
-  Mesh world_mesh = mesh;
-  for (Vec3& p : world_mesh.positions) p = reg.world_from_object * p;
-  // The object's own normals (the file's, or computed when it had none),
-  // turned with it: recomputing could change their weighting.
-  for (Vec3& n : world_mesh.normals) n = reg.world_from_object.rotation * n;
   SaveObj(world_mesh, (tmp / "mesh.obj").string(), /*write_normals=*/true);
   Scene scene;
   scene.dir = tmp.string();

@@ -238,6 +238,7 @@ LampPaperResult RefineLampWithPaper(const std::vector<HighlightObservation>& obs
   ceres::Solve(so, &problem, &summary);
   fit.with_ambient = true;
   fit.Solve(r.position.data(), &r.ambient, &r.K);
+  r.ambient_share = r.ambient / fit.typical;
   r.highlight_rms_px = obs.empty() ? 0.0 : Rms(obs, spheres, r.position);
   double sum = 0;
   for (size_t i = 0; i < fit.values.size(); ++i)

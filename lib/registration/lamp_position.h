@@ -87,6 +87,7 @@ struct LampPaperOptions {
 struct LampPaperResult {
   Vec3 position = Vec3::Zero();
   double K = 0, ambient = 0;       // v = ambient + K cos / r^2 at the final position
+  double ambient_share = 0;        // ambient / the median paper value
   double highlight_rms_px = 0, paper_rms_relative = 0;
 };
 LampPaperResult RefineLampWithPaper(const std::vector<HighlightObservation>& observations,
