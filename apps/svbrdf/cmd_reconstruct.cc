@@ -74,6 +74,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--fit-max-foreign-share", job->fit_max_foreign_share,
                 "with --probe-rays: samples whose footprint sees another surface beyond this share inform the split "
                 "search only (1 = off)");
+  c->add_option("--interreflection-bounces", job->interreflection.bounces,
+                "indirect light removed from the samples before the fits: path-traced bounces over the mesh with a\n"
+                "Lambertian estimate of the material (0 = off); the material records them and relight adds them back");
+  c->add_option("--interreflection-paths", job->interreflection.paths, "--interreflection-bounces: paths per sample");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")

@@ -33,7 +33,8 @@ void RegisterRelight(CLI::App& app, Runner* run) {
   c->add_option("--adaptive-tolerance", a->options.adaptive_tolerance,
                 "--adaptive-rounds: target standard error of a pixel's sRGB value (default 0.001)");
   c->add_option("--bounces", a->options.bounces,
-                "indirect light: path-traced surface bounces after the first hit (0 = direct only, the default);\n"
+                "indirect light: path-traced surface bounces after the first hit (0 = direct only; default: the\n"
+                "bounces the material was fitted without, material.json info.interreflection, else 0);\n"
                 "to score against photos of objects that light themselves (concave shapes, real captures)");
   c->add_option("--bounce-samples", a->options.bounce_samples, "--bounces: indirect paths per pixel sample");
   c->add_option("--threads", a->options.threads, "worker threads (0 = all cores)");
@@ -54,9 +55,15 @@ void RegisterRelight(CLI::App& app, Runner* run) {
       a->options.samples_per_pixel = d.samples_per_pixel;
       a->options.adaptive_max_rounds = d.adaptive_max_rounds;
     }
-    *run = [a] {
+    const bool bounces_given = c->count("--bounces") > 0;
+    *run = [a, bounces_given] {
       const auto t0 = std::chrono::steady_clock::now();
       const Material material = LoadMaterial(a->material);
+      if (!bounces_given && MaterialBounces(material) > 0) {
+        a->options.bounces = MaterialBounces(material);
+        std::fprintf(stderr, "relight: %d indirect bounces (the material was fitted to direct light; --bounces 0: "
+                     "direct only)\n", a->options.bounces);
+      }
       const Scene scene = LoadScene(a->scene);
       OutputFolder out(a->out);
       const int n = RelightScene(material, scene, out.path(), a->options);

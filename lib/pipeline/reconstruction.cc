@@ -82,6 +82,7 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
   MaterialShader shader(material);
   RelightOptions ro = RelightOptions::PixelIntegrating();
   ro.progress = false;
+  ro.bounces = MaterialBounces(material);
   RenderedView v = RenderView(tracer, shader, scene, index, ro);
   const Image photo = ReadImage(scene.Resolve(e.file), scene.images_color_space);
   Image mask;
@@ -121,6 +122,16 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   GatherResult g = Gather(scene, job.gather);
   if (job.after_gather) job.after_gather(g);
   std::fprintf(stderr, "  %s\n", g.stats.Report().c_str());
+  InterreflectionReport interreflection;
+  if (job.interreflection.bounces > 0) {
+    timer.Start("interreflection");
+    InterreflectionOptions io = job.interreflection;
+    io.seed = job.estimate.seed;
+    io.threads = job.estimate.threads;
+    io.progress = io.progress && job.estimate.progress;
+    interreflection = RemoveInterreflection(scene, &g, io);
+    std::fprintf(stderr, "  %s\n", interreflection.Summary().c_str());
+  }
 
   timer.Start("fit + cluster");
   ReconstructOptions eo = job.estimate;
@@ -210,6 +221,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     material.normal_map_space = job.normal_map_space;
   }
   material.extra = {{"source", "svbrdf reconstruct"}, {"scene", job.scene_path}};
+  // Fitted to direct light: renders add the indirect light that was removed
+  // (none on an object that sees nothing of itself).
+  if (interreflection.removed_share > 0) SetMaterialBounces(&material, interreflection.bounces);
   SaveMaterial(material, job.out_dir);
   material = LoadMaterial(job.out_dir);  // what relight will see
 
@@ -225,6 +239,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                         {"unlit", g.stats.unlit},        {"shadowed", g.stats.shadowed},
                         {"saturated", g.stats.saturated}, {"invalid_pixel", g.stats.invalid}};
   summary["warnings"] = g.stats.warnings;
+  summary["interreflection"] = {{"bounces", interreflection.bounces},
+                                {"removed_share", interreflection.removed_share},
+                                {"samples_over_5pc", interreflection.samples_over_5pc},
+                                {"max_share", interreflection.max_share}};
   summary["clusters"] = est.basis.size();
   summary["render_target"] = RenderTargetName(target);
   summary["candidate_models"] = eo.candidate_models;

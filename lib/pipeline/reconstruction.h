@@ -9,6 +9,7 @@
 
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
+#include "indirect/interreflection.h"
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/refine.h"
@@ -59,6 +60,9 @@ struct ReconstructionJob {
   // normals when the normals are unknown (0: none; on DiLiGenT the search
   // moved the normals away from the scans', bench_results/diligent.md).
   DictionaryFitOptions photometric;
+  // Indirect light removed from the samples before the fits
+  // (indirect/interreflection.h); seed and threads from `estimate`.
+  InterreflectionOptions interreflection;
   int photometric_normal_rounds = 0;
   // Called on the gathered samples before the estimate (bench tools: e.g.
   // an oracle that drops samples by their disagreement with a known truth).

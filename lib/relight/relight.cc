@@ -10,10 +10,27 @@
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "core/rng.h"
+#include "relight/light_paths.h"
 
 namespace svbrdf {
 
 namespace fs = std::filesystem;
+
+int MaterialBounces(const Material& material) {
+  const nlohmann::json& x = material.extra;
+  if (!x.is_object() || !x.contains("interreflection") || !x["interreflection"].is_object()) return 0;
+  const nlohmann::json& b = x["interreflection"].value("bounces", nlohmann::json(0));
+  if (!b.is_number_integer() || b.get<int>() < 0 || b.get<int>() > 64)
+    throw Error(Msg(material.dir, "/material.json: info.interreflection.bounces must be an integer in [0, 64]"));
+  return b.get<int>();
+}
+
+void SetMaterialBounces(Material* material, int bounces) {
+  if (!material->extra.is_object()) material->extra = nlohmann::json::object();
+  material->extra["interreflection"] = {
+      {"bounces", bounces},
+      {"meaning", "fitted to direct light: the photos' indirect light over this many bounces was removed"}};
+}
 
 RelightOptions RelightOptions::PixelIntegrating() {
   RelightOptions o;
@@ -55,65 +72,7 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
   const Camera& cam = scene.CameraById(entry.camera);
   const Light& light = scene.LightById(entry.light);
   const Rigid3 world_from_cam = entry.cam_from_world.Inverse();
-  const Vec3 eye = world_from_cam.translation;
-  const double scene_scale = 1e-4;  // shadow-ray offset; meshes are in metres, objects ~0.1-10 m
-
-  // A surface point as seen along a ray: position, texture coordinate, shading frame.
-  struct Vertex {
-    Hit hit;
-    Vec3 x;
-    Vec2 uv;
-    Frame frame;
-  };
-  auto vertex = [&](const Hit& hit) {
-    Vertex v{hit, tracer.Position(hit), tracer.TexCoord(hit), Frame{}};
-    const Vec3 dpdu = tracer.mesh().FaceDpDu(hit.prim);
-    const Vec3 n_shade = shader.Normal(v.uv, tracer.ShadingNormal(hit), dpdu);
-    v.frame = Frame::FromNormalTangent(n_shade, dpdu);
-    return v;
-  };
-  // Ray origin just off the surface, on the side direction d leaves to.
-  auto offset = [&](const Vertex& v, const Vec3& d) -> Vec3 {
-    const Vec3 ng = v.hit.geometric_normal.dot(d) >= 0 ? v.hit.geometric_normal : Vec3(-v.hit.geometric_normal);
-    return v.x + ng * scene_scale;
-  };
-  // Light arriving at v directly from the light and leaving towards wo.
-  auto direct = [&](const Vertex& v, const Vec3& wo) -> Rgb {
-    const LightSample ls = SampleLight(light, v.x, world_from_cam.rotation, eye);
-    const double cos_i = v.frame.n.dot(ls.wi);
-    if (cos_i <= 0 || (ls.normal_irradiance <= 0).all()) return Rgb::Zero();
-    if (tracer.Occluded(offset(v, ls.wi), ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * scene_scale))
-      return Rgb::Zero();
-    return shader.Eval(v.uv, v.frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
-  };
-  // Indirect light leaving `first` towards wo: options.bounce_samples paths.
-  auto indirect = [&](const Vertex& first, const Vec3& first_wo, Rng& rng) -> Rgb {
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
-    Rgb sum = Rgb::Zero();
-    for (int k = 0; k < options.bounce_samples; ++k) {
-      Vertex v = first;
-      Vec3 wo = first_wo;
-      Rgb throughput = Rgb::Ones();
-      for (int b = 0; b < options.bounces; ++b) {
-        // Cosine-weighted direction: pdf cos/pi, so f cos / pdf = f pi.
-        const double u = u01(rng), phi = 2 * kPi * u01(rng), r = std::sqrt(u);
-        const Vec3 wi = v.frame.ToWorld(Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - u))));
-        throughput *= shader.Eval(v.uv, v.frame, wi, wo) * kPi;
-        if (!(throughput > 0).any()) break;
-        Hit next;
-        if (!tracer.Intersect(offset(v, wi), wi, &next)) break;
-        v = vertex(next);
-        wo = -wi;
-        sum += throughput * direct(v, wo);
-        if (b >= 1) {  // Russian roulette
-          const double survive = std::min(1.0, throughput.maxCoeff());
-          if (u01(rng) >= survive) break;
-          throughput /= survive;
-        }
-      }
-    }
-    return sum / double(options.bounce_samples);
-  };
+  const LightPaths paths(tracer, shader, light, world_from_cam);
 
   // Radiance arriving at the camera along a pixel-coordinate ray (0 on a miss).
   auto shade = [&](double px, double py, Rng& rng, bool* hit_out) -> Rgb {
@@ -126,14 +85,14 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
       return Rgb::Zero();
     }
     *hit_out = true;
-    const Vertex v = vertex(hit);
+    const LightPaths::Vertex v = paths.At(hit);
     const Vec3 wo = -dir.normalized();  // towards the viewer (the eye, or -z of an orthographic camera)
-    Rgb radiance = direct(v, wo);
-    if (options.bounces > 0) radiance += indirect(v, wo, rng);
+    Rgb radiance = paths.Direct(v, wo);
+    if (options.bounces > 0) radiance += paths.Indirect(v, wo, options.bounces, options.bounce_samples, rng);
     if (shader.HasTransfer()) {
       // Measured transfer beyond the BRDF (interreflection, light in the
       // shadows): it needs no shadow ray, and the sum stays non-negative.
-      const LightSample ls = SampleLight(light, v.x, world_from_cam.rotation, eye);
+      const LightSample ls = SampleLight(light, v.x, world_from_cam.rotation, paths.eye());
       radiance = (radiance + shader.Transfer(v.uv, ls.wi) * ls.normal_irradiance).max(0.0);
     }
     return radiance;

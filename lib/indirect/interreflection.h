@@ -1,0 +1,60 @@
+// Interreflection removed from gathered samples before the fits.
+//
+// The fits (lib/cluster) model direct light only: y = f(wi, wo) geom
+// (gather/samples.h). On a concave object every photo also holds light that
+// other parts of the object reflected onto the texel; fitted as direct
+// light it brightens the albedo where the surface sees itself, and the split
+// search takes the concavities for a material of their own. This stage
+// estimates that light and subtracts it, to first order (the usual
+// "inverse global illumination" step, e.g. Yu et al., SIGGRAPH 1999):
+//
+//   1. per texel, a Lambertian albedo rho_t (median over its samples of
+//      pi y / geom; the object's median where a texel has none);
+//   2. per sample, the indirect irradiance e at the texel under the
+//      sample's light, path traced over the mesh with that Lambertian
+//      material (LightPaths::Indirect: cosine-weighted paths, `bounces`
+//      surface bounces, shadow rays), in the sample's units (y's);
+//   3. rho_t estimated again as the median of pi y / (geom + e), and the
+//      indirect radiance rho_t / pi * e subtracted from y (kept >= 0).
+//
+// Convex shapes see nothing of themselves: e = 0 and the samples are
+// unchanged. The material then describes direct reflection, so renders of
+// it need the same indirect light: the material records the bounces
+// (`svbrdf relight` uses them unless --bounces is given).
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "gather/gather.h"
+#include "io/scene.h"
+
+namespace svbrdf {
+
+// Options (reconstruct --interreflection-*):
+//   bounces   surface bounces of the indirect light (0 = off)          [0, 8]
+//   paths     paths per sample (noise of e, zero mean)                 [1, 256]
+//   seed      random streams (per sample: deterministic)
+//   threads   0 = all cores
+struct InterreflectionOptions {
+  int bounces = 2;
+  int paths = 8;
+  uint64_t seed = 1;
+  int threads = 0;
+  bool progress = true;
+  void Check() const;
+};
+
+struct InterreflectionReport {
+  int bounces = 0;
+  int64_t samples = 0;
+  double removed_share = 0;      // sum of removed over sum of y (all channels)
+  double samples_over_5pc = 0;   // share of samples that lost more than 5 % of their value
+  double max_share = 0;          // largest share removed from one sample
+  std::string Summary() const;
+};
+
+// Subtracts the estimated indirect light from g->samples (see above). The
+// scene gives each sample's camera pose and light.
+InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g, const InterreflectionOptions& o);
+
+}  // namespace svbrdf

@@ -1,0 +1,60 @@
+// Light reaching surface points from one image's light: direct light with a
+// shadow ray, and indirect light (interreflection) by path tracing with the
+// material's BRDF. Shared by the relighting renderer (RenderView) and by the
+// reconstruction's interreflection stage, which needs the indirect light at
+// texels rather than at pixels.
+#pragma once
+#include <functional>
+
+#include "core/rng.h"
+#include "io/scene.h"
+#include "raytrace/raytracer.h"
+#include "relight/shader.h"
+
+namespace svbrdf {
+
+class LightPaths {
+ public:
+  // `world_from_cam`: the pose of the image's camera, which places
+  // camera-frame lights (a flash). The tracer, shader and light must outlive this.
+  LightPaths(const RayTracer& tracer, const MaterialShader& shader, const Light& light, const Rigid3& world_from_cam);
+
+  // A surface point as seen along a ray: position, texture coordinate, shading frame.
+  struct Vertex {
+    Hit hit;
+    Vec3 x;
+    Vec2 uv;
+    Frame frame;
+  };
+  Vertex At(const Hit& hit) const;
+
+  // Radiance leaving v towards wo (world, unit) lit directly by the light.
+  Rgb Direct(const Vertex& v, const Vec3& wo) const;
+
+  // Indirect radiance leaving a point towards its viewer: `paths` paths of up
+  // to `bounces` surface bounces, directions drawn from the cosine-weighted
+  // hemisphere of `frame` (estimate f pi L per step), direct light with a
+  // shadow ray at every vertex, Russian roulette from the second bounce on.
+  // `first_f(wi)`: the BRDF at the first point for an incoming world
+  // direction wi (the first point may be a texel, not a ray hit).
+  // `origin_offset(wi)`: where rays towards wi leave the first point.
+  Rgb Indirect(const Frame& frame, const std::function<Rgb(const Vec3&)>& first_f,
+               const std::function<Vec3(const Vec3&)>& origin_offset, int bounces, int paths, Rng& rng) const;
+  // The same from a ray hit, with the material's BRDF there.
+  Rgb Indirect(const Vertex& v, const Vec3& wo, int bounces, int paths, Rng& rng) const;
+
+  // Ray origin just off the surface at v, on the side direction d leaves to.
+  Vec3 Offset(const Vertex& v, const Vec3& d) const;
+
+  const Vec3& eye() const { return eye_; }
+  static constexpr double kSceneScale = 1e-4;  // ray offset; meshes are in metres, objects ~0.1-10 m
+
+ private:
+  const RayTracer& tracer_;
+  const MaterialShader& shader_;
+  const Light& light_;
+  Rigid3 world_from_cam_;
+  Vec3 eye_;
+};
+
+}  // namespace svbrdf
