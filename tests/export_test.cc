@@ -492,6 +492,16 @@ TEST(MitsubaExport, WritesSceneFilesWithExactTextureSums) {
   const nlohmann::json views = nlohmann::json::parse(ReadFileBytes(dir + "/views.json"));
   ASSERT_EQ(views.size(), 2u);
   EXPECT_EQ(views[1]["image"], "images/0000.exr");
+  EXPECT_NE(view.find("<integrator type=\"direct\"/>"), std::string::npos) << view;
+  fs::remove_all(dir);
+  // A material fitted after its photos' interreflection was removed renders
+  // those bounces again: a path tracer of max_depth bounces + 2.
+  Material ir = m;
+  SetMaterialBounces(&ir, 2);
+  ExportMitsuba(ir, &s, o, dir);
+  const std::string ir_view = ReadFileBytes(dir + "/view_0000.xml");
+  EXPECT_NE(ir_view.find("<integrator type=\"path\">"), std::string::npos) << ir_view;
+  EXPECT_NE(ir_view.find("name=\"max_depth\" value=\"4\""), std::string::npos) << ir_view;
   fs::remove_all(dir);
 }
 

@@ -297,9 +297,20 @@ XmlElement Include(const std::string& file) {
   return i;
 }
 
-XmlElement DirectIntegrator() {
+// Direct light, as the reconstruction fitted it; a material fitted after
+// its photos' interreflection was removed (info.interreflection) gets that
+// many bounces back from a path tracer (max_depth counts path segments:
+// 2 = direct light).
+XmlElement Integrator(const Material& m) {
   XmlElement i("integrator");
-  i.Attr("type", "direct").Comment("direct light only, as svbrdf relight and the reconstruction assume");
+  const int bounces = MaterialBounces(m);
+  if (bounces == 0) {
+    i.Attr("type", "direct").Comment("direct light only, as svbrdf relight and the reconstruction assume");
+    return i;
+  }
+  i.Attr("type", "path").Comment(Msg("the material was fitted to direct light after ", bounces,
+                                     " bounces of interreflection were removed: they are rendered here"));
+  i.Add(Named("integer", "max_depth", std::to_string(bounces + 2)));
   return i;
 }
 
@@ -419,7 +430,7 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
       const std::string where = Msg("images[", i, "] (", e.file, ")");
       XmlElement root = SceneRoot();
       root.Add(Include("object.xml"));
-      root.Add(DirectIntegrator());
+      root.Add(Integrator(m));
       root.Add(Sensor(scene->CameraById(e.camera), e.cam_from_world, bounds, o.spp, &warnings, where));
       root.Add(Emitter(scene->LightById(e.light), e, bounds, &warnings, where))
           .Comment(Msg("light ", e.light, ", scaled by the image's exposure ", e.exposure));
@@ -442,7 +453,7 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
     const Rigid3 pose = Rigid3::LookAt(c + Vec3(0, 0, 3 * bounds.Radius() + 1e-6), c, Vec3::UnitY());
     XmlElement root = SceneRoot();
     root.Add(Include("object.xml"));
-    root.Add(DirectIntegrator());
+    root.Add(Integrator(m));
     root.Add(Sensor(cam, pose, bounds, o.spp, &warnings, "default view"));
     XmlElement& env = root.Add(XmlElement("emitter"));
     env.Attr("type", "constant");

@@ -265,4 +265,20 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
   out.Commit();
 }
 
+int MaterialBounces(const Material& material) {
+  const nlohmann::json& x = material.extra;
+  if (!x.is_object() || !x.contains("interreflection") || !x["interreflection"].is_object()) return 0;
+  const nlohmann::json& b = x["interreflection"].value("bounces", nlohmann::json(0));
+  if (!b.is_number_integer() || b.get<int>() < 0 || b.get<int>() > 64)
+    throw Error(Msg(material.dir, "/material.json: info.interreflection.bounces must be an integer in [0, 64]"));
+  return b.get<int>();
+}
+
+void SetMaterialBounces(Material* material, int bounces) {
+  if (!material->extra.is_object()) material->extra = nlohmann::json::object();
+  material->extra["interreflection"] = {
+      {"bounces", bounces},
+      {"meaning", "fitted to direct light: the photos' indirect light over this many bounces was removed"}};
+}
+
 }  // namespace svbrdf

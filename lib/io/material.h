@@ -65,6 +65,12 @@ Material LoadMaterial(const std::string& dir);
 // `dir`.tmp-XXXX first and renamed over `dir` when complete.
 void SaveMaterial(const Material& material, const std::string& dir);
 
+// Indirect bounces a material was fitted without (reconstruct removed that
+// interreflection from its samples): material.json "info.interreflection.bounces";
+// 0 when absent. Renders meant to match photos add them back.
+int MaterialBounces(const Material& material);
+void SetMaterialBounces(Material* material, int bounces);
+
 nlohmann::json BasisToJson(const BasisMaterial& b);
 BasisMaterial BasisFromJson(const nlohmann::json& j, const std::string& context);
 

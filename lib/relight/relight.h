@@ -92,12 +92,6 @@ RenderedView RenderPixels(const Camera& cam, const ImageEntry& entry, size_t ind
 int RelightScene(const Material& material, const Scene& scene, const std::string& out_dir,
                  const RelightOptions& options);
 
-// Indirect bounces a material was fitted without (reconstruct removed that
-// interreflection from its samples): material.json "info.interreflection.bounces";
-// 0 when absent. Renders meant to match photos add them back.
-int MaterialBounces(const Material& material);
-void SetMaterialBounces(Material* material, int bounces);
-
 // Writes a rendered colour image with the pixel format its extension implies.
 void WriteRendered(const std::string& path, const Image& color, ColorSpace integer_space);
 
