@@ -14,6 +14,8 @@ void ReconstructOptions::Check() const {
   if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
   if (!(control_min_share >= 0 && control_min_share <= 1))
     throw Error("reconstruct: control min share must be in [0, 1]");
+  if (max_failed_splits < 1 || max_failed_splits > 20)
+    throw Error(Msg("reconstruct: --max-failed-splits must be in [1, 20], got ", max_failed_splits));
   if (!(min_split_coherence >= 0 && min_split_coherence <= 1))
     throw Error(Msg("reconstruct: min split coherence must be in [0, 1], got ", min_split_coherence));
   if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");

@@ -106,6 +106,13 @@ struct ReconstructOptions {
   // region scores about 1 - 0.75/w, so 0.7 keeps regions >= 3 texels wide.
   // 0 = off.
   double min_split_coherence = 0.7;
+  // The split search stops after this many splits in a row that did not
+  // improve on the best state (each tries another feature set or the
+  // next-worst cluster, with backtracking).                          [1, 20]
+  // On the generalization benchmark's dev half every kept split came after
+  // at most one failed one, while the search went on for 2.5-19 s after
+  // its last kept split with 4 (bench_results/generalization.md).
+  int max_failed_splits = 2;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels

@@ -11,7 +11,6 @@ namespace svbrdf {
 
 namespace {
 
-constexpr int kMaxFailedSplits = 4;  // splits in a row without improvement before stopping
 // A refined control split whose partition matches the candidate's on this
 // share of the texels found the same regions (see the control test below).
 constexpr double kControlSamePartition = 0.95;
@@ -107,7 +106,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       variants_tried.resize(cl.K(), 0);
       variants_tried[lookahead ? root_cluster : k]++;
       lookahead = false;
-      return ++fails >= kMaxFailedSplits;
+      return ++fails >= o.max_failed_splits;
     };
     std::vector<int> proposal(cl.assign());
     for (size_t t = 0; t < side.size(); ++t)
@@ -203,6 +202,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     log(Msg(cl.K(), " clusters (split of cluster ", k, ", features ", variants_tried[k], "; ", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
             " % below the best so far without the worst 2 % of texels, ", 100 * total_drop, " % with them; z = ", z, control_note, ")"));
     if (o.force_clusters > 0 || passes) {
+      log(Msg("kept: ", cl.K(), " clusters (after ", fails, " failed splits in a row)"));
       states.push_back({cl.basis(), cl.assign(), h, texel_sse});
       best = h;
       best_state = states.size() - 1;
@@ -218,7 +218,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       variants_tried.assign(cl.K(), 0);
     } else {
       // Backtrack: undo the split(s) and try another feature set or the
-      // next-worst cluster; stop after `kMaxFailedSplits` failures in a row.
+      // next-worst cluster; stop after `max_failed_splits` failures in a row.
       if (undo()) break;
     }
   }
