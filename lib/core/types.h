@@ -1,6 +1,9 @@
 // Basic math types shared by every module. Directions are unit Eigen vectors;
 // colours are linear RGB Eigen arrays.
 #pragma once
+#include <algorithm>
+#include <cmath>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -25,5 +28,13 @@ struct Frame {
   Vec3 ToLocal(const Vec3& w) const { return Vec3(w.dot(t), w.dot(b), w.dot(n)); }
   Vec3 ToWorld(const Vec3& w) const { return w.x() * t + w.y() * b + w.z() * n; }
 };
+
+// A cosine-weighted direction of the upper hemisphere (z up, pdf cos / pi)
+// from two uniform numbers in [0, 1): Malley's method, u1 for the radius of
+// the disc point, u2 for its angle.
+inline Vec3 CosineHemisphere(double u1, double u2) {
+  const double r = std::sqrt(u1), phi = 2 * kPi * u2;
+  return Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - u1)));
+}
 
 }  // namespace svbrdf

@@ -1,7 +1,6 @@
 #include "indirect/interreflection.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <random>
 
@@ -10,7 +9,6 @@
 #include "core/progress.h"
 #include "core/rng.h"
 #include "io/material.h"
-#include "light/light.h"
 #include "raytrace/raytracer.h"
 #include "relight/light_paths.h"
 #include "relight/shader.h"
@@ -102,8 +100,8 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
     Rng rng(StreamSeed(o.seed, uint64_t(t), 1));
     std::uniform_real_distribution<double> u01(0.0, 1.0);
     for (int k = 0; k < kSide * kSide && !sees_object[t]; ++k) {
-      const double u = (k / kSide + u01(rng)) / kSide, phi = 2 * kPi * (k % kSide + u01(rng)) / kSide, r = std::sqrt(u);
-      const Vec3 d = frame.ToWorld(Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - u))));
+      const double u1 = (k / kSide + u01(rng)) / kSide, u2 = (k % kSide + u01(rng)) / kSide;
+      const Vec3 d = frame.ToWorld(CosineHemisphere(u1, u2));
       Hit hit;
       sees_object[t] = geometry.Intersect(tx.position + tx.normal * LightPaths::kSceneScale, d, &hit);
     }
@@ -129,13 +127,11 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
       auto white = [](const Vec3&) { return Rgb::Constant(1.0 / kPi); };
       auto leave = [&](const Vec3&) { return origin; };
       for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
-        const ImageEntry& entry = scene.images[s.image[i]];
         const LightPaths& lp = paths[s.image[i]];
+        const LightSample ls = lp.LightAt(tx.position);
+        if (!(ls.normal_irradiance > 0).all()) continue;
         Rng rng(StreamSeed(o.seed, uint64_t(i)));  // the same paths in both passes
         const Rgb l_in = lp.Indirect(frame, white, leave, o.bounces, o.paths, rng);
-        const LightSample ls = SampleLight(scene.LightById(entry.light), tx.position,
-                                           entry.cam_from_world.Inverse().rotation, lp.eye());
-        if (!(ls.normal_irradiance > 0).all()) continue;
         const double m = ls.normal_irradiance.mean();
         for (int c = 0; c < 3; ++c) e[i][c] = kPi * l_in[c] * m / ls.normal_irradiance[c];
       }

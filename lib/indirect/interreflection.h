@@ -17,6 +17,10 @@
 //   3. rho_t estimated again as the median of pi y / (geom + e), and the
 //      indirect radiance rho_t / pi * e subtracted from y (kept >= 0).
 //
+// The albedo that traces step 2 is itself the unknown: steps 2-3 run twice
+// (with the raw samples' albedo, then with the first result) and the fixed
+// point per texel is taken on the secant between the two passes.
+//
 // Convex shapes see nothing of themselves: e = 0 and the samples are
 // unchanged. The material then describes direct reflection, so renders of
 // it need the same indirect light: the material records the bounces

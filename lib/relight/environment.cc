@@ -50,8 +50,8 @@ RenderedView RenderViewEnvironment(const RayTracer& tracer, const MaterialShader
       const Vec3 wi_env = env.Sample(a, b, &p_env);
       sum += contribution(wi_env, p_env);
       // Cosine-weighted direction about the shading normal (Malley's method).
-      const double r = std::sqrt(u01(rng)), phi = 2 * kPi * u01(rng);
-      const Vec3 wi_cos = frame.ToWorld(Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - r * r))));
+      const double u1 = u01(rng), u2 = u01(rng);
+      const Vec3 wi_cos = frame.ToWorld(CosineHemisphere(u1, u2));
       sum += contribution(wi_cos, env.Pdf(wi_cos));
     }
     return sum / double(n);

@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "light/light.h"
-
 namespace svbrdf {
 
 LightPaths::LightPaths(const RayTracer& tracer, const MaterialShader& shader, const Light& light,
@@ -24,8 +22,12 @@ Vec3 LightPaths::Offset(const Vertex& v, const Vec3& d) const {
   return v.x + ng * kSceneScale;
 }
 
+LightSample LightPaths::LightAt(const Vec3& x) const {
+  return SampleLight(light_, x, world_from_cam_.rotation, eye_);
+}
+
 Rgb LightPaths::Direct(const Vertex& v, const Vec3& wo) const {
-  const LightSample ls = SampleLight(light_, v.x, world_from_cam_.rotation, eye_);
+  const LightSample ls = LightAt(v.x);
   const double cos_i = v.frame.n.dot(ls.wi);
   if (cos_i <= 0 || (ls.normal_irradiance <= 0).all()) return Rgb::Zero();
   if (tracer_.Occluded(Offset(v, ls.wi), ls.wi, 0.0, std::isinf(ls.distance) ? 1e30 : ls.distance - 2 * kSceneScale))
@@ -45,8 +47,8 @@ Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const
     Rgb throughput = Rgb::Ones();
     for (int b = 0; b < bounces; ++b) {
       // Cosine-weighted direction: pdf cos/pi, so f cos / pdf = f pi.
-      const double u = u01(rng), phi = 2 * kPi * u01(rng), r = std::sqrt(u);
-      const Vec3 wi = frame.ToWorld(Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - u))));
+      const double u1 = u01(rng), u2 = u01(rng);
+      const Vec3 wi = frame.ToWorld(CosineHemisphere(u1, u2));
       throughput *= (b == 0 ? first_f(wi) : shader_.Eval(v.uv, v.frame, wi, wo)) * kPi;
       if (!(throughput > 0).any()) break;
       Hit next;

@@ -8,6 +8,7 @@
 
 #include "core/rng.h"
 #include "io/scene.h"
+#include "light/light.h"
 #include "raytrace/raytracer.h"
 #include "relight/shader.h"
 
@@ -27,6 +28,9 @@ class LightPaths {
     Frame frame;
   };
   Vertex At(const Hit& hit) const;
+
+  // The light at world point x (direction, distance, irradiance on a surface facing it).
+  LightSample LightAt(const Vec3& x) const;
 
   // Radiance leaving v towards wo (world, unit) lit directly by the light.
   Rgb Direct(const Vertex& v, const Vec3& wo) const;

@@ -76,7 +76,7 @@ RenderedView RenderView(const RayTracer& tracer, const MaterialShader& shader, c
     if (shader.HasTransfer()) {
       // Measured transfer beyond the BRDF (interreflection, light in the
       // shadows): it needs no shadow ray, and the sum stays non-negative.
-      const LightSample ls = SampleLight(light, v.x, world_from_cam.rotation, paths.eye());
+      const LightSample ls = paths.LightAt(v.x);
       radiance = (radiance + shader.Transfer(v.uv, ls.wi) * ls.normal_irradiance).max(0.0);
     }
     return radiance;
