@@ -174,6 +174,56 @@ TEST(Fit, RobustLossBeatsLeastSquaresWithOutliers) {
   EXPECT_LT(robust_error, 0.25 * plain_error);
 }
 
+// A model that cannot explain everything: a single lobe fitted to samples of
+// a broad lobe plus a mirror-like spike (a clear coat over a glossy base).
+// Linear residuals let the few spike samples decide the fit; compressed ones
+// fit the broad reflection that most samples (most of every photo) show.
+TEST(Fit, CompressionFitsTheBulkUnderModelMismatch) {
+  const ModelSpec truth_spec = ModelSpec::FromLabel("lafortune-2");
+  const std::vector<double> truth{0.1, 0.1, 0.1, 0.5, 0.5, 0.5, -1, 1, 8, 3, 3, 3, -1, 1, 300};
+  const SampleSet set = SynthesizeSamples(truth_spec, truth, Synth(20000));
+  const ModelSpec spec = ModelSpec::FromLabel("lafortune-1");
+  // Median relative prediction error over the samples.
+  auto median_rel = [&](const std::vector<double>& p) {
+    std::vector<double> rel;
+    for (int64_t s = 0; s < set.size(); ++s) {
+      const Rgb q = PredictSample(spec, p.data(), set, s), t = PredictSample(truth_spec, truth.data(), set, s);
+      if (t.sum() > 1e-6) rel.push_back(std::abs(q.sum() - t.sum()) / t.sum());
+    }
+    std::nth_element(rel.begin(), rel.begin() + rel.size() / 2, rel.end());
+    return rel[rel.size() / 2];
+  };
+  FitOptions linear;
+  linear.threads = 1;
+  FitOptions compressed = linear;
+  compressed.compression = 1.0;
+  const FitResult fl = FitModel(spec, set, {}, linear), fc = FitModel(spec, set, {}, compressed);
+  const double e_linear = median_rel(fl.params), e_compressed = median_rel(fc.params);
+  // The lobe follows the spike (exponent 300) in the linear fit, the broad
+  // reflection (exponent 8) in the compressed one.
+  EXPECT_GT(fl.params[8], 100);
+  EXPECT_LT(fc.params[8], 50);
+  EXPECT_LT(e_compressed, 0.8 * e_linear) << "median relative error: linear " << e_linear;
+  // Exact data is fitted exactly either way: the weights only matter where
+  // the model cannot follow the samples.
+  const ModelSpec lambert = ModelSpec::FromLabel("lambert");
+  const SampleSet exact = SynthesizeSamples(lambert, {0.6, 0.4, 0.2}, Synth(2000));
+  const FitResult r = FitModel(lambert, exact, {}, compressed);
+  EXPECT_NEAR(r.params[0], 0.6, 1e-6);
+  EXPECT_NEAR(r.params[2], 0.2, 1e-6);
+}
+
+TEST(Fit, ResidualWeight) {
+  FitOptions o;
+  EXPECT_EQ(ResidualWeight(o, 123.0), 1.0);  // off: linear residuals
+  o.compression = 1.0;
+  o.compression_reference = 0.1;
+  EXPECT_NEAR(ResidualWeight(o, 0.0), 1.0, 1e-12);
+  EXPECT_NEAR(ResidualWeight(o, 0.1), 1.0 / std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(ResidualWeight(o, 9.9), 0.1, 1e-12);  // a highlight 99x the median: 1/10 the residual
+  EXPECT_NEAR(ResidualWeight(o, -1.0), 1.0, 1e-12);  // noise below zero counts as black
+}
+
 TEST(Fit, DeterministicForSeedAndThreads) {
   const ModelSpec spec = ModelSpec::FromLabel("lafortune-2");
   const SampleSet set = SynthesizeSamples(spec, RecoveryCases()[3].truth, Synth(30000, 0.01));
@@ -292,6 +342,8 @@ TEST(Fit, OptionsCheckNamesTheBadOption) {
   expect_rejects("function_tolerance", [](FitOptions& b) { b.function_tolerance = NAN; });
   expect_rejects("robust_scale", [](FitOptions& b) { b.robust_scale = -0.1; });
   expect_rejects("robust_scale", [](FitOptions& b) { b.robust_scale = INFINITY; });
+  expect_rejects("compression", [](FitOptions& b) { b.compression = -1; });
+  expect_rejects("compression_reference", [](FitOptions& b) { b.compression_reference = NAN; });
   expect_rejects("max_samples", [](FitOptions& b) { b.max_samples = 0; });
   expect_rejects("threads", [](FitOptions& b) { b.threads = -2; });
   FitOptions bad;

@@ -97,6 +97,41 @@ TEST(Photometric, PixelMeshHasOneQuadPerPixelMappedOntoItsTexel) {
 
 // Closed-form observations of one pixel family: Lambert albedo plus a
 // Beckmann lobe from the dictionary, lights on a cone about the view.
+// A hole in a sphere cap's normals (pixels the photos did not determine)
+// filled by the membrane of its rim: close to the cap, much closer than
+// facing the camera.
+TEST(Photometric, FillNormalsSmoothlyBridgesAHole) {
+  const int w = 41, h = 41;
+  Image normals(w, h, 3), region(w, h, 1), known(w, h, 1);
+  std::vector<Vec3> truth(w * h, Vec3::Zero());
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double X = (x - 20) / 22.0, Y = (y - 20) / 22.0;
+      if (X * X + Y * Y > 0.8) continue;
+      truth[y * w + x] = Vec3(X, Y, -std::sqrt(1 - X * X - Y * Y));
+      region.at(x, y, 0) = 1.0f;
+      const bool hole = std::abs(x - 28) <= 3 && std::abs(y - 18) <= 4;
+      const Vec3 n = hole ? Vec3(0, 0, -1) : truth[y * w + x];
+      known.at(x, y, 0) = hole ? 0.0f : 1.0f;
+      for (int c = 0; c < 3; ++c) normals.at(x, y, c) = float(n[c]);
+    }
+  auto hole_error = [&](const Image& n) {
+    double worst = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (region.at(x, y, 0) > 0.5f && known.at(x, y, 0) < 0.5f)
+          worst = std::max(worst, std::acos(std::min(1.0, Vec3(n.at(x, y, 0), n.at(x, y, 1), n.at(x, y, 2))
+                                                              .normalized().dot(truth[y * w + x]))) * 180 / kPi);
+    return worst;
+  };
+  const double before = hole_error(normals);
+  ASSERT_TRUE(FillNormalsSmoothly(known, region, &normals));
+  const double after = hole_error(normals);
+  EXPECT_GT(before, 15.0);
+  EXPECT_LT(after, 2.0);
+  EXPECT_FALSE(FillNormalsSmoothly(Image(w, h, 1), region, &normals));  // nothing known
+}
+
 PsObservations SyntheticObservations(const std::vector<Vec3>& normals, const std::vector<Rgb>& diffuse, double specular,
                                      const BasisMaterial& lobe) {
   PsObservations o;
@@ -139,9 +174,18 @@ TEST(Photometric, LambertianNormalsAndDictionaryFitRecoverClosedFormPixels) {
   }
   // Lambert only: exact normals.
   const PsObservations lam = SyntheticObservations(normals, diffuse, 0.0, lobe);
-  const Image n0 = LambertianNormals(lam, {}, 1);
-  for (int p = 0; p < 30; ++p)
+  Image determined;
+  const Image n0 = LambertianNormals(lam, {}, 1, &determined);
+  for (int p = 0; p < 30; ++p) {
     EXPECT_LT(std::acos(std::min(1.0, Vec3(n0.at(p, 0, 0), n0.at(p, 0, 1), n0.at(p, 0, 2)).dot(normals[p]))), 1e-3);
+    EXPECT_EQ(determined.at(p, 0, 0), 1.0f);
+  }
+  // A black pixel sends no light under any lamp: not determined.
+  std::vector<Rgb> dark = diffuse;
+  dark[7] = Rgb::Zero();
+  LambertianNormals(SyntheticObservations(normals, dark, 0.0, lobe), {}, 1, &determined);
+  EXPECT_EQ(determined.at(7, 0, 0), 0.0f);
+  EXPECT_EQ(determined.at(8, 0, 0), 1.0f);
   // With the lobe: selection finds it, the weights come back.
   const PsObservations glossy = SyntheticObservations(normals, diffuse, 0.4, lobe);
   Image truth(30, 1, 3);

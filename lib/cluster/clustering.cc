@@ -108,6 +108,9 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
 FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector<int64_t>& ids,
                     const ReconstructOptions& o, FitOptions fo, const std::vector<double>& init, bool init_is_fit) {
   fo.robust_scale = std::max(0.0, o.robust_scale);
+  // One reference brightness for the least-squares and the robust fit, so
+  // that the robust scale below is in the units of the fit's residuals.
+  if (fo.compression > 0 && !(fo.compression_reference > 0)) fo.compression_reference = MedianBrightness(s, ids);
   const bool skip_ls = init_is_fit && !init.empty() && o.robust_scale < 0 && !ids.empty();
   FitResult ls;
   if (skip_ls) ls.params = init;
@@ -117,7 +120,8 @@ FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector
   const size_t step = std::max<size_t>(1, ids.size() / 20000);
   for (size_t j = 0; j < ids.size(); j += step) {
     const Rgb p = PredictSample(spec, ls.params.data(), s, ids[j]);
-    for (int c = 0; c < 3; ++c) r.push_back(std::abs(s.y[c][ids[j]] - float(p[c])));
+    const double w = ResidualWeight(fo, (double(s.y[0][ids[j]]) + s.y[1][ids[j]] + s.y[2][ids[j]]) / 3.0);
+    for (int c = 0; c < 3; ++c) r.push_back(float(w * std::abs(s.y[c][ids[j]] - p[c])));
   }
   std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);

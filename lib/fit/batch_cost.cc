@@ -168,7 +168,8 @@ constexpr bool IsFixed(std::integer_sequence<int, Ns...>, int n) {
 
 }  // namespace
 
-PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int64_t>& ids) {
+PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int64_t>& ids,
+                                     const std::function<double(double)>& weight) {
   PackedSamples packed;
   packed.values.resize(ids.size() * kStride);
   double* out = packed.values.data();
@@ -179,6 +180,10 @@ PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int
       out[7 + k] = set.y[k][s];
     }
     out[6] = set.geom[s];
+    if (weight) {
+      const double w = weight((out[7] + out[8] + out[9]) / 3.0);
+      for (int k = 6; k < 10; ++k) out[k] *= w;
+    }
     out += kStride;
   }
   if (set.HasFootprint()) {

@@ -7,6 +7,7 @@
 #include <ceres/cost_function.h>
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "brdf/model.h"
@@ -34,7 +35,10 @@ struct PackedSamples {
   int64_t size() const { return static_cast<int64_t>(values.size()) / kStride; }
   const double* row(int64_t i) const { return values.data() + i * kStride; }
   // Packs samples `ids` of `set` in the given order.
-  static PackedSamples FromIds(const SampleSet& set, const std::vector<int64_t>& ids);
+  // `weight` (of the sample's mean measured value) scales its residual: it
+  // multiplies the geometry factor and the measurement of the row.
+  static PackedSamples FromIds(const SampleSet& set, const std::vector<int64_t>& ids,
+                               const std::function<double(double)>& weight = nullptr);
 };
 
 // Cost function with 3*count residuals r = f_c(wi,wo)*geom - y_c for samples

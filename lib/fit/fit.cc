@@ -124,6 +124,27 @@ std::pair<double, double> MeanLoss(const ModelSpec& spec, const std::vector<doub
 
 }  // namespace
 
+double MedianBrightness(const SampleSet& samples, const std::vector<int64_t>& ids) {
+  std::vector<double> y;
+  const int64_t n = ids.empty() ? samples.size() : int64_t(ids.size());
+  y.reserve(n);
+  for (int64_t i = 0; i < n; ++i) {
+    const int64_t s = ids.empty() ? i : ids[i];
+    y.push_back(std::max(0.0, (double(samples.y[0][s]) + samples.y[1][s] + samples.y[2][s]) / 3.0));
+  }
+  if (y.empty()) return 0.0;
+  std::nth_element(y.begin(), y.begin() + y.size() / 2, y.end());
+  return y[y.size() / 2];
+}
+
+double ResidualWeight(const FitOptions& options, double y_mean) {
+  if (!(options.compression > 0)) return 1.0;
+  // A reference of 0 (mostly black samples) would weigh every lit sample
+  // towards 0: the floor keeps the weights finite and ordered.
+  const double ref = std::max(options.compression_reference, 1e-6);
+  return 1.0 / std::sqrt(1.0 + std::max(0.0, y_mean) / (options.compression * ref));
+}
+
 void FitOptions::Check() const {
   auto fail = [](const char* name, auto value, const char* rule) {
     throw Error(Msg("FitOptions.", name, " = ", value, ": must be ", rule));
@@ -131,6 +152,9 @@ void FitOptions::Check() const {
   if (max_iterations < 1) fail("max_iterations", max_iterations, ">= 1");
   if (!(function_tolerance >= 0 && function_tolerance < 1)) fail("function_tolerance", function_tolerance, "in [0, 1)");
   if (!(robust_scale >= 0 && std::isfinite(robust_scale))) fail("robust_scale", robust_scale, "finite and >= 0");
+  if (!(compression >= 0 && std::isfinite(compression))) fail("compression", compression, "finite and >= 0");
+  if (!(compression_reference >= 0 && std::isfinite(compression_reference)))
+    fail("compression_reference", compression_reference, "finite and >= 0");
   if (max_samples < 1) fail("max_samples", max_samples, ">= 1");
   if (threads < 0) fail("threads", threads, ">= 0 (0 = all cores)");
 }
@@ -144,7 +168,11 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
                     ", which has ", num_params));
   const std::vector<ParamInfo> info = spec.Params();
   const std::vector<int64_t> selected = SelectSamples(samples, ids, options);
-  const PackedSamples packed = PackedSamples::FromIds(samples, selected);
+  FitOptions weighted = options;
+  if (options.compression > 0 && !(options.compression_reference > 0))
+    weighted.compression_reference = MedianBrightness(samples, selected);
+  const PackedSamples packed = PackedSamples::FromIds(
+      samples, selected, [&](double y_mean) { return ResidualWeight(weighted, y_mean); });
   const int64_t n = packed.size();
   // Gathering rejects non-finite pixels; this keeps any other source (a
   // caller's samples, a broken light) from reaching Ceres as NaN residuals.

@@ -20,6 +20,17 @@ struct FitOptions {
   // Robust loss: 0 = plain squared error; > 0 = Cauchy loss with this scale
   // (in residual units) against outliers (misregistration, interreflection).
   double robust_scale = 0.0;
+  // Brightness compression of the residuals: 0 = linear (r = f geom - y);
+  // > 0 = each sample's residual is scaled by 1 / sqrt(1 + Y / (c Y_ref)),
+  // Y its measured brightness (mean of the channels), Y_ref the median Y of
+  // the fitted samples (or `compression_reference` when > 0). Linear
+  // residuals let a few highlight samples, brighter by 100x than the rest,
+  // outweigh everything else: the fit explains them and leaves the diffuse
+  // and the lobes' flanks, which fill most of every photo, to chance. The
+  // scaling weighs a sample's error about as a display (gamma) or photon
+  // noise does.
+  double compression = 0.0;
+  double compression_reference = 0.0;
   // Fits use at most this many samples (a deterministic random subset) —
   // basis materials have few parameters, so more samples add time, not accuracy.
   // Fewer are used when a fit on 4000 already predicts the unseen rest of
@@ -61,6 +72,12 @@ double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& para
 // for any thread count.
 double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& samples,
                           const std::vector<int64_t>& ids, int threads, int64_t* count);
+
+// The residual weight of `options.compression` for a sample of brightness
+// y_mean (1 without compression), and the reference brightness (median over
+// `ids`) it is relative to.
+double ResidualWeight(const FitOptions& options, double y_mean);
+double MedianBrightness(const SampleSet& samples, const std::vector<int64_t>& ids);
 
 // Model prediction for one sample (f * geom per channel).
 Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& samples, int64_t s);

@@ -149,8 +149,10 @@ std::vector<uint8_t> CastShadows(const PsObservations& obs, const Mesh& mesh, in
   return shadowed;
 }
 
-Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads) {
+Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads,
+                        Image* determined) {
   Image out(obs.width, obs.height, 3);
+  if (determined) *determined = Image(obs.width, obs.height, 1);
   ParallelFor(obs.P(), threads, [&](long p) {
     std::vector<std::pair<double, int>> lum;
     for (int l = 0; l < obs.lights; ++l) {
@@ -167,6 +169,7 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
     size_t lo = lum.size() / 4, hi = (3 * lum.size()) / 4;
     if (hi < lo + 6) lo = 0, hi = lum.size();
     std::vector<std::pair<double, int>> in(lum.begin() + lo, lum.begin() + hi);
+    bool solved = false;
     for (int round = 0; round < 2 && in.size() >= 3; ++round) {
       Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
       Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
@@ -177,6 +180,7 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
       const Vec3 g = AtA.ldlt().solve(Atb);
       if (!(g.norm() > 0) || !g.allFinite()) break;
       n = g.normalized();
+      solved = true;
       // Photos in attached shadow of this estimate carry no information on it.
       std::vector<std::pair<double, int>> kept;
       for (const auto& e : in)
@@ -186,6 +190,8 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
     }
     if (n.z() > -0.05) n = Vec3(n.x(), n.y(), -0.05).normalized();  // must face the camera
     const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
+    const long lit = std::count_if(in.begin(), in.end(), [](const auto& e) { return e.first > 0; });
+    if (determined && solved && lit >= kMinDeterminingPhotos) determined->at(x, y, 0) = 1.0f;
     for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(n[c]);
   }, 256);
   return out;

@@ -57,7 +57,13 @@ std::vector<uint8_t> CastShadows(const PsObservations& obs, const Mesh& mesh, in
 // inlier photos: values below the pixel's 25th percentile (shadows,
 // interreflection) and above its 75th (highlights) are left out, then photos
 // the first estimate puts in attached shadow. Camera-frame unit normals, 3
-// channels; pixels with fewer than 3 inliers face the camera.
-Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads);
+// channels. A pixel is determined when at least kMinDeterminingPhotos of its
+// inlier photos hold light (a value above 0); the others (black or
+// mirror-like surfaces, which send no light to the camera under most
+// lights, or pixels in shadow in most photos) face the camera and get 0 in
+// `determined` (1 channel, photo-sized; optional).
+Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads,
+                        Image* determined = nullptr);
+constexpr int kMinDeterminingPhotos = 6;
 
 }  // namespace svbrdf

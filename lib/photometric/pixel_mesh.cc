@@ -166,4 +166,46 @@ bool FillFromNearest(const Image& known, Image* image) {
   return true;
 }
 
+bool FillNormalsSmoothly(const Image& known, const Image& region, Image* normals) {
+  const int w = normals->width, h = normals->height;
+  Image known_in_region(w, h, 1);
+  std::vector<int> holes;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (region.at(x, y, 0) <= 0.5f) continue;
+      if (known.at(x, y, 0) > 0.5f) known_in_region.at(x, y, 0) = 1.0f;
+      else holes.push_back(y * w + x);
+    }
+  if (holes.size() == size_t(std::count_if(region.pixels.begin(), region.pixels.end(), [](float v) { return v > 0.5f; })))
+    return false;
+  if (holes.empty()) return true;
+  FillFromNearest(known_in_region, normals);
+  // Jacobi sweeps until no hole pixel turns by more than ~0.01 degrees (the
+  // membrane converges in about (hole diameter)^2 sweeps; the cap bounds the
+  // cost of a large hole, whose interior then keeps some of the start).
+  constexpr int kMaxSweeps = 2000;
+  constexpr double kTolerance = 2e-4;
+  std::vector<Vec3> next(holes.size());
+  for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+    double change = 0;
+    for (size_t i = 0; i < holes.size(); ++i) {
+      const int x = holes[i] % w, y = holes[i] / w;
+      Vec3 sum = Vec3::Zero();
+      const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
+      for (int k = 0; k < 4; ++k) {
+        const int xn = x + dx[k], yn = y + dy[k];
+        if (xn < 0 || yn < 0 || xn >= w || yn >= h || region.at(xn, yn, 0) <= 0.5f) continue;
+        sum += Vec3(normals->at(xn, yn, 0), normals->at(xn, yn, 1), normals->at(xn, yn, 2));
+      }
+      const Vec3 old(normals->at(x, y, 0), normals->at(x, y, 1), normals->at(x, y, 2));
+      next[i] = sum.norm() > 0 ? Vec3(sum.normalized()) : old;
+      change = std::max(change, (next[i] - old).norm());
+    }
+    for (size_t i = 0; i < holes.size(); ++i)
+      for (int c = 0; c < 3; ++c) normals->at(holes[i] % w, holes[i] / w, c) = float(next[i][c]);
+    if (change < kTolerance) break;
+  }
+  return true;
+}
+
 }  // namespace svbrdf

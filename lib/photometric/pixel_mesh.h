@@ -36,4 +36,11 @@ Mesh PixelGridMesh(const Camera& cam, const Rigid3& cam_from_world, const Image&
 // if no pixel is known.
 bool FillFromNearest(const Image& known, Image* image);
 
+// Fills the unit normals (3 channels) of `region` pixels outside `known` so
+// that each is the normalised mean of its 4 region neighbours (a membrane
+// over the holes, relaxed by Jacobi sweeps from a nearest-pixel start): a
+// hole inherits the slope of its whole rim, not one side's. Returns false
+// if no region pixel is known (the normals are left as they were).
+bool FillNormalsSmoothly(const Image& known, const Image& region, Image* normals);
+
 }  // namespace svbrdf

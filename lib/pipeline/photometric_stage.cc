@@ -116,7 +116,19 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
     normal_info["source"] = "capture mesh";
   } else {
     timer->Start("lambertian normals");
-    normals = FillNormals(obs, LambertianNormals(obs, {}, fo.threads));
+    Image determined;
+    normals = LambertianNormals(obs, {}, fo.threads, &determined);
+    // Pixels the photos do not determine (dark or mirror-like in nearly
+    // every photo) take the membrane of their determined surroundings
+    // instead of facing the camera.
+    for (size_t i = 0; i < determined.pixels.size(); ++i) determined.pixels[i] *= obs.valid.pixels[i] > 0.5f ? 1.0f : 0.0f;
+    FillNormalsSmoothly(determined, obs.region, &normals);
+    normals = FillNormals(obs, normals);
+    const long undetermined = std::count_if(obs.pixel.begin(), obs.pixel.end(),
+                                            [&](int px) { return determined.pixels[px] <= 0.5f; });
+    normal_info["undetermined_pixels"] = undetermined;
+    std::fprintf(stderr, "  Lambertian start: %ld of %d pixels not determined by the photos (%.1f %%): filled from "
+                 "their surroundings\n", undetermined, obs.P(), 100.0 * undetermined / std::max(1, obs.P()));
     if (truth.width) {
       normal_info["lambertian_start"] = AngularError(normals, truth, obs.region);
       std::fprintf(stderr, "  Lambertian start: normals %.2f deg from the truth\n",
