@@ -700,7 +700,9 @@ def write_md(results, path):
     objs = list(results["objects"])
     R = results["objects"]
     p = results["protocol"]
-    L = [f"# DiLiGenT (real photographs): held-out relighting and normals", "",
+    real = any(R[o]["normals_mae_deg"]["published"] for o in objs)
+    title = "DiLiGenT (real photographs)" if real else f"Photometric-stereo objects from {p.get('data', '?')}"
+    L = [f"# {title}: held-out relighting and normals", "",
          f"Generated {results['generated']} by `scripts/bench_diligent.py`"
          + (" **--peers-only** (the project's CLI was not run; captures from the script's Python stand-in for "
             "import-ps)" if p["peers_only"] else "") + ".", "",
@@ -741,11 +743,12 @@ def write_md(results, path):
             fmt(R[o]["normals_mae_deg"].get("project_summary_reported")) for o in objs) + " |")
     nrow("Lambertian LS, this script (80 training lights, the capture's masks)", "python_lambertian_ls_training_lights")
     nrow("Lambertian LS, this script (all 96 lights and pixels: check of the last row)", "python_lambertian_ls_96_lights")
-    for name in PUBLISHED_NORMALS:
+    for name in PUBLISHED_NORMALS if real else []:
         L.append(f"| {name}{'' if '8-bit' in name else ' (published)'} | " + " | ".join(
             fmt(R[o]["normals_mae_deg"]["published"].get(name)) for o in objs) + " |")
-    L += ["", "Published rows: from the data README (Shi et al., DiLiGenT, CVPR 2016 / TPAMI 2019, 16-bit "
-          "originals, all 96 lights); the last one is that README's own Lambertian LS on these 8-bit copies. "
+    L += ["", ("Published rows: from the data README (Shi et al., DiLiGenT, CVPR 2016 / TPAMI 2019, 16-bit "
+               "originals, all 96 lights); the last one is that README's own Lambertian LS on these 8-bit copies. "
+               if real else "No published results exist for these objects. ") +
           "Mean over the whole mask; a method that leaves pixels without a normal is averaged over the pixels it "
           "covers (coverage in brackets).", ""]
     if not p["peers_only"]:
@@ -801,7 +804,7 @@ def main():
                           stderr=subprocess.DEVNULL).returncode != 0:
             sys.exit(f"{cli} import-ps --help fails: this CLI has no import-ps yet (use --peers-only)")
     results = {"generated": datetime.datetime.now().isoformat(timespec="seconds"),
-               "protocol": {"hold_out_every": args.hold_out_every, "peers_only": args.peers_only,
+               "protocol": {"data": args.data, "hold_out_every": args.hold_out_every, "peers_only": args.peers_only,
                             "peers_exposure": args.peers_exposure if args.peers_only else "from import-ps",
                             "metric": "svbrdf evaluate: mean sRGB PSNR inside the per-photo masks"
                                       + (" (Python re-implementation)" if args.peers_only else ""),

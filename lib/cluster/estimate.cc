@@ -49,18 +49,27 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   // 3. Model economy per cluster (model_selection.cc). Under a deadline it
   // runs per cluster while it fits (the clustering model is the fallback).
   const double search_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (fit_samples == nullptr || fit_samples == &samples) {
+  // Steps 3-6 fit with linear residuals: the brightness compression
+  // (FitOptions::compression) serves the search, whose splits it keeps from
+  // chasing the fits' highlight errors; the materials themselves are chosen
+  // and fitted for the light they send, highlights included (with
+  // compressed fits a metal's model selection can prefer a coated
+  // material, whose diffuse follows the dark flanks of the metal's lobe).
+  ReconstructOptions linear = o;
+  linear.fit.compression = 0;
+  const bool subset = fit_samples != nullptr && fit_samples != &samples;
+  if (subset && (fit_samples->num_texels != samples.num_texels || fit_samples->size() == 0))
+    throw Error(Msg("reconstruct: the fit samples (", fit_samples->size(), " on ", fit_samples->num_texels,
+                    " texels) are not a subset of the ", samples.num_texels, " texels' samples"));
+  if (!subset && !(o.fit.compression > 0)) {
     FinishEstimate(cl, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
     return est;
   }
-  if (fit_samples->num_texels != samples.num_texels || fit_samples->size() == 0)
-    throw Error(Msg("reconstruct: the fit samples (", fit_samples->size(), " on ", fit_samples->num_texels,
-                    " texels) are not a subset of the ", samples.num_texels, " texels' samples"));
   // Steps 3-6 on the fit samples: the search's partition and materials carry over.
-  Clustering fit(*fit_samples, atlas, o);
+  Clustering fit(subset ? *fit_samples : samples, atlas, linear);
   for (int k = 0; k < cl.K(); ++k) fit.SetBasis(k, cl.basis()[k]);
   fit.assign() = cl.assign();
-  log(Msg("fits and weights on ", fit_samples->size(), " of the ", samples.size(), " samples"));
+  if (subset) log(Msg("fits and weights on ", fit_samples->size(), " of the ", samples.size(), " samples"));
   FinishEstimate(fit, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
   return est;
 }
@@ -71,7 +80,9 @@ SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const R
   if (samples.size() == 0) throw Error("reconstruct: no samples");
   if (previous.basis.empty() || int(previous.label.size()) != samples.num_texels)
     throw Error(Msg("reconstruct: refit needs an estimate of the same ", samples.num_texels, " texels"));
-  Clustering cl(samples, atlas, o);
+  ReconstructOptions linear = o;  // as steps 3-6 of EstimateSvbrdf
+  linear.fit.compression = 0;
+  Clustering cl(samples, atlas, linear);
   SvbrdfEstimate est;
   est.history = previous.history;
   const StageLog log(o.progress);
