@@ -36,7 +36,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "the split search stops after this many splits in a row that did not improve on the best state");
   c->add_option("--robust", job->estimate.robust_scale, "Cauchy loss scale of cluster fits (-1 = automatic, 0 = least squares)");
   c->add_option("--fit-compression", job->estimate.fit.compression,
-                "fits weigh a sample's residual by 1/sqrt(1 + Y/(c x median Y)), Y its brightness (0 = linear residuals)");
+                "split-search fits weigh a sample's residual by 1/sqrt(1 + Y/(c x median Y)), Y its brightness\n"
+                "(0 = linear residuals; model selection and final fits are always linear)");
   c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
   c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
   c->add_option("--time-budget", job->time_budget_s,

@@ -121,7 +121,7 @@ FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector
   for (size_t j = 0; j < ids.size(); j += step) {
     const Rgb p = PredictSample(spec, ls.params.data(), s, ids[j]);
     const double w = ResidualWeight(fo, (double(s.y[0][ids[j]]) + s.y[1][ids[j]] + s.y[2][ids[j]]) / 3.0);
-    for (int c = 0; c < 3; ++c) r.push_back(float(w * std::abs(s.y[c][ids[j]] - p[c])));
+    for (int c = 0; c < 3; ++c) r.push_back(float(w) * std::abs(s.y[c][ids[j]] - float(p[c])));
   }
   std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
   fo.robust_scale = std::max(1e-6, 3.0 * 1.4826 * r[r.size() / 2]);

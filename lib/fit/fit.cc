@@ -171,8 +171,10 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
   FitOptions weighted = options;
   if (options.compression > 0 && !(options.compression_reference > 0))
     weighted.compression_reference = MedianBrightness(samples, selected);
-  const PackedSamples packed = PackedSamples::FromIds(
-      samples, selected, [&](double y_mean) { return ResidualWeight(weighted, y_mean); });
+  const PackedSamples packed =
+      options.compression > 0
+          ? PackedSamples::FromIds(samples, selected, [&](double y_mean) { return ResidualWeight(weighted, y_mean); })
+          : PackedSamples::FromIds(samples, selected);
   const int64_t n = packed.size();
   // Gathering rejects non-finite pixels; this keeps any other source (a
   // caller's samples, a broken light) from reaching Ceres as NaN residuals.
