@@ -120,7 +120,7 @@ FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector
   const size_t step = std::max<size_t>(1, ids.size() / 20000);
   for (size_t j = 0; j < ids.size(); j += step) {
     const Rgb p = PredictSample(spec, ls.params.data(), s, ids[j]);
-    const double w = ResidualWeight(fo, (double(s.y[0][ids[j]]) + s.y[1][ids[j]] + s.y[2][ids[j]]) / 3.0);
+    const double w = ResidualWeight(fo, SampleBrightness(s, ids[j]));
     for (int c = 0; c < 3; ++c) r.push_back(float(w) * std::abs(s.y[c][ids[j]] - float(p[c])));
   }
   std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());

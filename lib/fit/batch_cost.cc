@@ -6,6 +6,7 @@
 // Only inlining changes: the results are bitwise the same.
 #define EIGEN_STRONG_INLINE inline __attribute__((always_inline))
 #include "fit/batch_cost.h"
+#include "fit/fit.h"  // SampleBrightness
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/dynamic_autodiff_cost_function.h>
@@ -181,7 +182,7 @@ PackedSamples PackedSamples::FromIds(const SampleSet& set, const std::vector<int
     }
     out[6] = set.geom[s];
     if (weight) {
-      const double w = weight((out[7] + out[8] + out[9]) / 3.0);
+      const double w = weight(SampleBrightness(set, s));
       for (int k = 6; k < 10; ++k) out[k] *= w;
     }
     out += kStride;

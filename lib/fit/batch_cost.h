@@ -35,7 +35,7 @@ struct PackedSamples {
   int64_t size() const { return static_cast<int64_t>(values.size()) / kStride; }
   const double* row(int64_t i) const { return values.data() + i * kStride; }
   // Packs samples `ids` of `set` in the given order.
-  // `weight` (of the sample's mean measured value) scales its residual: it
+  // `weight` (of the sample's SampleBrightness) scales its residual: it
   // multiplies the geometry factor and the measurement of the row.
   static PackedSamples FromIds(const SampleSet& set, const std::vector<int64_t>& ids,
                                const std::function<double(double)>& weight = nullptr);

@@ -130,7 +130,7 @@ double MedianBrightness(const SampleSet& samples, const std::vector<int64_t>& id
   y.reserve(n);
   for (int64_t i = 0; i < n; ++i) {
     const int64_t s = ids.empty() ? i : ids[i];
-    y.push_back(std::max(0.0, (double(samples.y[0][s]) + samples.y[1][s] + samples.y[2][s]) / 3.0));
+    y.push_back(std::max(0.0, SampleBrightness(samples, s)));
   }
   if (y.empty()) return 0.0;
   std::nth_element(y.begin(), y.begin() + y.size() / 2, y.end());
@@ -168,13 +168,13 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
                     ", which has ", num_params));
   const std::vector<ParamInfo> info = spec.Params();
   const std::vector<int64_t> selected = SelectSamples(samples, ids, options);
+  std::function<double(double)> weight;  // none: linear residuals
   FitOptions weighted = options;
-  if (options.compression > 0 && !(options.compression_reference > 0))
-    weighted.compression_reference = MedianBrightness(samples, selected);
-  const PackedSamples packed =
-      options.compression > 0
-          ? PackedSamples::FromIds(samples, selected, [&](double y_mean) { return ResidualWeight(weighted, y_mean); })
-          : PackedSamples::FromIds(samples, selected);
+  if (options.compression > 0) {
+    if (!(options.compression_reference > 0)) weighted.compression_reference = MedianBrightness(samples, selected);
+    weight = [&weighted](double y_mean) { return ResidualWeight(weighted, y_mean); };
+  }
+  const PackedSamples packed = PackedSamples::FromIds(samples, selected, weight);
   const int64_t n = packed.size();
   // Gathering rejects non-finite pixels; this keeps any other source (a
   // caller's samples, a broken light) from reaching Ceres as NaN residuals.

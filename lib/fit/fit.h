@@ -78,6 +78,10 @@ double SumSquaredResidual(const ModelSpec& spec, const std::vector<double>& para
 // `ids`) it is relative to.
 double ResidualWeight(const FitOptions& options, double y_mean);
 double MedianBrightness(const SampleSet& samples, const std::vector<int64_t>& ids);
+// A sample's brightness Y: the mean of its measured channels.
+inline double SampleBrightness(const SampleSet& samples, int64_t s) {
+  return (double(samples.y[0][s]) + samples.y[1][s] + samples.y[2][s]) / 3.0;
+}
 
 // Model prediction for one sample (f * geom per channel).
 Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& samples, int64_t s);

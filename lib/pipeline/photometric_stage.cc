@@ -120,8 +120,8 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
     normals = LambertianNormals(obs, {}, fo.threads, &determined);
     // Pixels the photos do not determine (dark or mirror-like in nearly
     // every photo) take the membrane of their determined surroundings
-    // instead of facing the camera.
-    for (size_t i = 0; i < determined.pixels.size(); ++i) determined.pixels[i] *= obs.valid.pixels[i] > 0.5f ? 1.0f : 0.0f;
+    // instead of facing the camera. (A pixel without valid photos is never
+    // determined.)
     FillNormalsSmoothly(determined, obs.region, &normals);
     normals = FillNormals(obs, normals);
     const long undetermined = std::count_if(obs.pixel.begin(), obs.pixel.end(),
