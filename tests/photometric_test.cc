@@ -219,6 +219,63 @@ TEST(Photometric, LambertianNormalsAndDictionaryFitRecoverClosedFormPixels) {
               0.3);
 }
 
+// A metal (a specular lobe, no diffuse): the Lambertian start is far off and
+// says so through its misfit; the search under the basis, from the start
+// and from the specular cue, finds the normals; pixels outside `search`
+// keep their start.
+TEST(Photometric, MetalNormalsAreSearchedWhereTheLambertianStartMisfits) {
+  const std::vector<BasisMaterial> dict = DictionaryCandidates();
+  BasisMaterial lobe;
+  for (const BasisMaterial& b : dict)
+    if (b.name == "specular_ggx_m0.14") lobe = b;
+  ASSERT_FALSE(lobe.name.empty());
+  std::vector<Vec3> normals;
+  for (int p = 0; p < 20; ++p) normals.push_back(Vec3(0.25 * std::sin(p), 0.2 * std::cos(1.3 * p), -1).normalized());
+  auto angle = [&](const Image& n, int p) {
+    return std::acos(std::min(1.0, Vec3(n.at(p, 0, 0), n.at(p, 0, 1), n.at(p, 0, 2)).normalized().dot(normals[p]))) *
+           180 / kPi;
+  };
+  Image misfit;
+  const Image lambert_start =
+      LambertianNormals(SyntheticObservations(normals, std::vector<Rgb>(20, Rgb(0.5, 0.5, 0.5)), 0.0, lobe), {}, 1,
+                        nullptr, &misfit);
+  for (int p = 0; p < 20; ++p) EXPECT_LT(misfit.at(p, 0, 0), 0.01) << "a Lambertian pixel fits";
+  const PsObservations metal = SyntheticObservations(normals, std::vector<Rgb>(20, Rgb::Zero()), 1.0, lobe);
+  const Image start = LambertianNormals(metal, {}, 1, nullptr, &misfit);
+  double start_error = 0;
+  for (int p = 0; p < 20; ++p) {
+    EXPECT_GT(misfit.at(p, 0, 0), 0.15) << "pixel " << p;
+    start_error += angle(start, p) / 20;
+  }
+  EXPECT_GT(start_error, 3.0);
+  DictionaryFitOptions o;
+  o.threads = 1;
+  const std::vector<BasisMaterial> basis = {dict[0], lobe};
+  const Image refined = RefineNormals(metal, basis, start, {}, o);
+  for (int p = 0; p < 20; ++p) EXPECT_LT(angle(refined, p), 0.5) << "pixel " << p;
+  Image search(20, 1, 1);
+  search.at(3, 0, 0) = 1.0f;
+  const Image masked = RefineNormals(metal, basis, start, {}, o, &search);
+  EXPECT_LT(angle(masked, 3), 0.5);
+  EXPECT_EQ(masked.at(4, 0, 0), start.at(4, 0, 0));
+  EXPECT_EQ(masked.at(4, 0, 1), start.at(4, 0, 1));
+}
+
+// The window median: an isolated outlier is gone, a region of them stays.
+TEST(Photometric, RegionMedianKeepsRegionsAndDropsIsolatedPixels) {
+  Image v(9, 9, 1), region(9, 9, 1, 1.0f);
+  v.at(2, 2, 0) = 1.0f;
+  for (int y = 5; y < 9; ++y)
+    for (int x = 5; x < 9; ++x) v.at(x, y, 0) = 1.0f;
+  region.at(0, 0, 0) = 0.0f;
+  v.at(0, 0, 0) = 5.0f;  // outside the region: never counted
+  const Image m = RegionMedian(v, region, 1);
+  EXPECT_EQ(m.at(2, 2, 0), 0.0f);
+  EXPECT_EQ(m.at(7, 7, 0), 1.0f);
+  EXPECT_EQ(m.at(0, 0, 0), 0.0f);
+  EXPECT_EQ(m.at(1, 1, 0), 0.0f);
+}
+
 // A scratch copy of the test crop, for breaking one file at a time.
 std::string CropCopy(const std::string& name) {
   const fs::path src = fs::path(SVBRDF_SOURCE_DIR) / "tests/data/diligent_cat_crop";

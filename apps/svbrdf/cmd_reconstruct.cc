@@ -113,7 +113,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");
   c->add_option("--ps-normal-rounds", job->photometric_normal_rounds,
-                "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search");
+                "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search\n"
+                "(where the Lambertian start misfits, --ps-search-misfit; 0 = the Lambertian start alone)");
   c->add_option("--ps-max-basis", job->photometric.max_basis, "photometric captures: most basis BRDFs (Lambert included)");
   c->add_option("--ps-min-gain", job->photometric.min_gain,
                 "photometric captures: relative cross-validated error drop an added basis BRDF must bring");
@@ -123,6 +124,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "photometric captures: exponent of the sRGB slope in the fit weights (0 = linear, 1 = PSNR's units)");
   c->add_option("--ps-min-cos", job->photometric.min_cos,
                 "photometric captures: photos lighting a pixel at a cosine below this are left out of its fit");
+  c->add_option("--ps-search-misfit", job->photometric.search_misfit,
+                "photometric captures with unknown normals: search the normals under the fitted basis where the\n"
+                "Lambertian start misfits its inlier photos by more than this relative RMS (0 = everywhere)");
   c->add_option("--for", job->render_target,
                 "fit only models the export target renders exactly: mitsuba (lambert, Smith Cook-Torrance, conductors)\n"
                 "or gltf (the glTF metallic-roughness BRDF); any = every candidate (default)")

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "brdf/cook_torrance.h"
 #include "brdf/model.h"
@@ -222,6 +223,84 @@ const uint8_t* ShadowRow(const std::vector<uint8_t>& shadowed, long p, int light
   return shadowed.empty() ? nullptr : &shadowed[size_t(p) * lights];
 }
 
+// Error of predicting each light fold's photos of pixel p from the other
+// folds' fit under normal n (photos `use`, null: all the pixel's photos).
+double FoldError(const PsObservations& obs, const GreyBasis& grey, long p, const Vec3& n,
+                 const std::vector<uint8_t>* use, const uint8_t* sh, const DictionaryFitOptions& o) {
+  const int K = grey.size();
+  std::vector<uint8_t> all(obs.lights, 1);
+  if (!use) use = &all;
+  double e = 0;
+  for (int f = 0; f < o.folds; ++f) {
+    std::vector<uint8_t> train(*use), test(*use);
+    for (int l = 0; l < obs.lights; ++l) train[l] = (*use)[l] && l % o.folds != f, test[l] = (*use)[l] && l % o.folds == f;
+    const PixelSolve fit = SolveRows(BuildRows(obs, grey, p, n, 1, &train, sh, o, Gates{false, false}), K, 1, o, false);
+    const Rows r = BuildRows(obs, grey, p, n, 1, &test, sh, o, Gates{false, false});
+    for (size_t i = 0; i < r.b.size(); ++i) {
+      const double d = r.b[i] - Dot(r.Row(i), fit.w, 0, K);
+      e += d * d;
+    }
+  }
+  return e;
+}
+
+// Pattern search on pixel p's luminance fit (steps of 4 degrees halved down
+// to 0.25) from `start`, on the photos the start's robust fit keeps; the
+// result is kept only if it predicts those photos left out of the fit (light
+// folds) better than the start: a flat or biased objective (a lobe that
+// absorbs the tilt) must not move the normal.
+Vec3 SearchNormal(const PsObservations& obs, const GreyBasis& grey, long p, const Vec3& start, const uint8_t* sh,
+                  const DictionaryFitOptions& o) {
+  const int K = grey.size();
+  // The photos (and rows) the search scores on are fixed at the start, so
+  // that every candidate normal is judged on the same data.
+  const Rows r0 = BuildRows(obs, grey, p, start, 1, nullptr, sh, o, Gates{});
+  if (r0.b.size() < size_t(K + 3)) return start;
+  std::vector<char> keep;
+  SolveRows(r0, K, 1, o, true, &keep);
+  std::vector<uint8_t> use(obs.lights, 0);
+  for (size_t i = 0; i < r0.b.size(); ++i)
+    if (keep[i]) use[r0.light[i]] = 1;
+  auto score = [&](const Vec3& m) {
+    const Rows r = BuildRows(obs, grey, p, m, 1, &use, sh, o, Gates{false, false});
+    return SolveRows(r, K, 1, o, false).sse;
+  };
+  Vec3 n = start;
+  double best_sse = score(n);
+  double step = 4.0 * kPi / 180;
+  int evaluations = 0;
+  while (step > 0.25 * kPi / 180 && evaluations < 80) {
+    const Frame fr = Frame::FromNormal(n);
+    Vec3 best_n = n;
+    for (int k = 0; k < 8; ++k) {
+      const double a = 2 * kPi * k / 8;
+      const Vec3 m = (n + std::tan(step) * (std::cos(a) * fr.t + std::sin(a) * fr.b)).normalized();
+      if (m.z() > -0.02) continue;
+      const double e = score(m);
+      ++evaluations;
+      if (e < best_sse) best_sse = e, best_n = m;
+    }
+    if (best_n == n) step *= 0.5;
+    else n = best_n;
+  }
+  return FoldError(obs, grey, p, n, &use, sh, o) < FoldError(obs, grey, p, start, &use, sh, o) ? n : start;
+}
+
+// Half vector between the viewer and the light of pixel p's brightest
+// usable photo (NaN if it has none).
+Vec3 BrightestHalfVector(const PsObservations& obs, long p, const uint8_t* sh) {
+  double best = 0;
+  int light = -1;
+  for (int l = 0; l < obs.lights; ++l) {
+    const size_t i = obs.At(p, l);
+    if ((sh && sh[l]) || obs.weight[i] <= 0 || obs.weight[i + 1] <= 0 || obs.weight[i + 2] <= 0) continue;
+    const double v = Luminance(&obs.value[i]);
+    if (v > best) best = v, light = l;
+  }
+  if (light < 0) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  return (obs.to_light[light] + obs.to_viewer).normalized();
+}
+
 }  // namespace
 
 std::vector<BasisMaterial> DictionaryCandidates() {
@@ -259,6 +338,8 @@ void DictionaryFitOptions::Check() const {
     throw Error(Msg("photometric: outlier_sigmas must be > 1 or 0, got ", outlier_sigmas));
   if (!(prior_rows >= 0) || !std::isfinite(prior_rows))
     throw Error(Msg("photometric: prior_rows must be a finite number >= 0, got ", prior_rows));
+  if (!(search_misfit >= 0) || !std::isfinite(search_misfit))
+    throw Error(Msg("photometric: search_misfit must be a finite number >= 0, got ", search_misfit));
   if (!(min_cos >= 0 && min_cos <= 0.5)) throw Error(Msg("photometric: min_cos must be in [0, 0.5], got ", min_cos));
 }
 
@@ -349,66 +430,29 @@ BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, 
 }
 
 Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>& basis, const Image& normals_cam,
-                    const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o) {
+                    const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, const Image* search) {
   Image out = normals_cam;
-  const int K = int(basis.size());
   const GreyBasis grey(basis);
   Progress bar("refine normals", obs.P(), true);
   ParallelFor(obs.P(), o.threads, [&](long p) {
-    Vec3 n = NormalAt(normals_cam, obs.pixel[p], obs.width);
-    const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
-    // The photos (and rows) the search scores on are fixed at the start, so
-    // that every candidate normal is judged on the same data.
-    const Rows r0 = BuildRows(obs, grey, p, n, 1, nullptr, sh, o, Gates{});
-    if (r0.b.size() < size_t(K + 3)) return;
-    std::vector<char> keep;
-    PixelSolve best = SolveRows(r0, K, 1, o, true, &keep);
-    std::vector<uint8_t> use(obs.lights, 0);
-    for (size_t i = 0; i < r0.b.size(); ++i)
-      if (keep[i]) use[r0.light[i]] = 1;
-    auto score = [&](const Vec3& m) {
-      const Rows r = BuildRows(obs, grey, p, m, 1, &use, sh, o, Gates{false, false});
-      return SolveRows(r, K, 1, o, false).sse;
-    };
-    double best_sse = score(n);
-    double step = 4.0 * kPi / 180;
-    int evaluations = 0;
-    while (step > 0.25 * kPi / 180 && evaluations < 80) {
-      const Frame fr = Frame::FromNormal(n);
-      Vec3 best_n = n;
-      for (int k = 0; k < 8; ++k) {
-        const double a = 2 * kPi * k / 8;
-        const Vec3 m = (n + std::tan(step) * (std::cos(a) * fr.t + std::sin(a) * fr.b)).normalized();
-        if (m.z() > -0.02) continue;
-        const double e = score(m);
-        ++evaluations;
-        if (e < best_sse) best_sse = e, best_n = m;
-      }
-      if (best_n == n) step *= 0.5;
-      else n = best_n;
+    if (search && search->pixels[obs.pixel[p]] < 0.5f) {
+      bar.Tick();
+      return;
     }
-    // Kept only if it predicts the pixel's photos left out of the fit
-    // (light folds) better than the start: a flat or biased objective (a
-    // lobe that absorbs the tilt) must not move the normal.
-    auto cv = [&](const Vec3& m) {
-      double e = 0;
-      for (int f = 0; f < o.folds; ++f) {
-        std::vector<uint8_t> train(use), test(use);
-        for (int l = 0; l < obs.lights; ++l) train[l] = use[l] && l % o.folds != f, test[l] = use[l] && l % o.folds == f;
-        const PixelSolve fit = SolveRows(BuildRows(obs, grey, p, m, 1, &train, sh, o, Gates{false, false}), K, 1, o, false);
-        const Rows r = BuildRows(obs, grey, p, m, 1, &test, sh, o, Gates{false, false});
-        for (size_t i = 0; i < r.b.size(); ++i) {
-          const double d = r.b[i] - Dot(r.Row(i), fit.w, 0, K);
-          e += d * d;
-        }
-      }
-      return e;
-    };
     const Vec3 start = NormalAt(normals_cam, obs.pixel[p], obs.width);
-    if (cv(n) >= cv(start)) n = start;
+    const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
+    Vec3 n = SearchNormal(obs, grey, p, start, sh, o);
+    // A second start from the specular cue: the half vector of the pixel's
+    // brightest photo, which is where a glossy pixel's normal lies and where
+    // a Lambertian start is furthest from it (metals). Kept only if it
+    // predicts all the pixel's photos left out of the fit better.
+    const Vec3 cue = BrightestHalfVector(obs, p, sh);
+    if (cue.allFinite() && std::acos(std::clamp(cue.dot(n), -1.0, 1.0)) > 6 * kPi / 180) {
+      const Vec3 m = SearchNormal(obs, grey, p, cue, sh, o);
+      if (FoldError(obs, grey, p, m, nullptr, sh, o) < 0.9 * FoldError(obs, grey, p, n, nullptr, sh, o)) n = m;
+    }
     const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
     for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(n[c]);
-    (void)best;
     bar.Tick();
   }, 64);
   return out;

@@ -44,6 +44,12 @@ std::vector<BasisMaterial> DictionaryCandidates();
 //   min_cos             photos lighting the pixel at a cosine below this
 //                       are left out (grazing light: mesh and normal errors
 //                       dominate)                                           [0, 0.5]
+//   search_misfit       the normal search runs on pixels whose Lambertian
+//                       start misfits its inlier photos by more than this
+//                       (relative RMS, median over a 15 x 15 window: metals,
+//                       lobe-dominated paint); elsewhere the Lambertian
+//                       start is kept, which the search's BRDF bias would
+//                       only move away from a scan's normals (0 = all)     >= 0
 struct DictionaryFitOptions {
   int folds = 5;
   int selection_pixels = 2000;
@@ -52,6 +58,7 @@ struct DictionaryFitOptions {
   double outlier_sigmas = 3.0;
   double min_cos = 0.05;
   double prior_rows = 0.0;
+  double search_misfit = 0.15;
   double srgb_weight_exponent = 0.5;  // see PsObservations::weight
   int threads = 0;
   // Dictionary models allowed (null: all); Lambert, the first, must be
@@ -85,10 +92,15 @@ BasisSelection SelectBasis(const PsObservations& obs, const Image& normals_cam, 
                            const DictionaryFitOptions& o);
 
 // Per-pixel normal search under the basis: pattern search on the pixel's
-// luminance fit (steps of 4 degrees halved down to 0.25), from `normals_cam`.
-// Returns the refined camera-frame normals.
+// luminance fit (steps of 4 degrees halved down to 0.25), from `normals_cam`
+// and from the half vector of the pixel's brightest photo (the specular
+// cue), each kept only if it predicts the pixel's photos left out of the fit
+// (light folds) better. Only pixels set in `search` (1 channel; null: all)
+// are searched; the others keep their normal. Returns the camera-frame
+// normals.
 Image RefineNormals(const PsObservations& obs, const std::vector<BasisMaterial>& basis, const Image& normals_cam,
-                    const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o);
+                    const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o,
+                    const Image* search = nullptr);
 
 // RGB weights of every pixel: one 3-channel map per basis BRDF (photo-sized,
 // zero outside the object), plus the share of usable photos per pixel.

@@ -150,9 +150,10 @@ std::vector<uint8_t> CastShadows(const PsObservations& obs, const Mesh& mesh, in
 }
 
 Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads,
-                        Image* determined) {
+                        Image* determined, Image* misfit) {
   Image out(obs.width, obs.height, 3);
   if (determined) *determined = Image(obs.width, obs.height, 1);
+  if (misfit) *misfit = Image(obs.width, obs.height, 1);
   ParallelFor(obs.P(), threads, [&](long p) {
     std::vector<std::pair<double, int>> lum;
     for (int l = 0; l < obs.lights; ++l) {
@@ -170,6 +171,7 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
     if (hi < lo + 6) lo = 0, hi = lum.size();
     std::vector<std::pair<double, int>> in(lum.begin() + lo, lum.begin() + hi);
     bool solved = false;
+    Vec3 g(0, 0, 0);
     for (int round = 0; round < 2 && in.size() >= 3; ++round) {
       Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
       Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
@@ -177,8 +179,9 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
         AtA += obs.to_light[l] * obs.to_light[l].transpose();
         Atb += v * obs.to_light[l];
       }
-      const Vec3 g = AtA.ldlt().solve(Atb);
-      if (!(g.norm() > 0) || !g.allFinite()) break;
+      const Vec3 fit = AtA.ldlt().solve(Atb);
+      if (!(fit.norm() > 0) || !fit.allFinite()) break;
+      g = fit;
       n = g.normalized();
       solved = true;
       // Photos in attached shadow of this estimate carry no information on it.
@@ -192,6 +195,14 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
     const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
     const long lit = std::count_if(in.begin(), in.end(), [](const auto& e) { return e.first > 0; });
     if (determined && solved && lit >= kMinDeterminingPhotos) determined->at(x, y, 0) = 1.0f;
+    if (misfit && solved) {
+      double sse = 0, sum = 0;
+      for (const auto& [v, l] : in) {
+        const double r = v - g.dot(obs.to_light[l]);
+        sse += r * r, sum += v;
+      }
+      misfit->at(x, y, 0) = sum > 0 ? float(std::sqrt(sse / in.size()) / (sum / in.size())) : 0.0f;
+    }
     for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(n[c]);
   }, 256);
   return out;

@@ -61,9 +61,12 @@ std::vector<uint8_t> CastShadows(const PsObservations& obs, const Mesh& mesh, in
 // inlier photos hold light (a value above 0); the others (black or
 // mirror-like surfaces, which send no light to the camera under most
 // lights, or pixels in shadow in most photos) face the camera and get 0 in
-// `determined` (1 channel, photo-sized; optional).
+// `determined` (1 channel, photo-sized; optional). `misfit` (optional, 1
+// channel, photo-sized) gets how far the inlier photos are from Lambertian:
+// the RMS residual of the fit over their mean value (metals and other
+// lobe-dominated surfaces, where the estimate is poor, stand out).
 Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& shadowed, int threads,
-                        Image* determined = nullptr);
+                        Image* determined = nullptr, Image* misfit = nullptr);
 constexpr int kMinDeterminingPhotos = 6;
 
 }  // namespace svbrdf

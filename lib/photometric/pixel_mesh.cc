@@ -208,4 +208,20 @@ bool FillNormalsSmoothly(const Image& known, const Image& region, Image* normals
   return true;
 }
 
+Image RegionMedian(const Image& values, const Image& region, int radius) {
+  Image out(values.width, values.height, 1);
+  std::vector<float> window;
+  for (int y = 0; y < values.height; ++y)
+    for (int x = 0; x < values.width; ++x) {
+      if (region.at(x, y, 0) < 0.5f) continue;
+      window.clear();
+      for (int v = std::max(0, y - radius); v <= std::min(values.height - 1, y + radius); ++v)
+        for (int u = std::max(0, x - radius); u <= std::min(values.width - 1, x + radius); ++u)
+          if (region.at(u, v, 0) >= 0.5f) window.push_back(values.at(u, v, 0));
+      std::nth_element(window.begin(), window.begin() + window.size() / 2, window.end());
+      out.at(x, y, 0) = window[window.size() / 2];
+    }
+  return out;
+}
+
 }  // namespace svbrdf

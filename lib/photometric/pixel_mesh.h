@@ -43,4 +43,8 @@ bool FillFromNearest(const Image& known, Image* image);
 // if no region pixel is known (the normals are left as they were).
 bool FillNormalsSmoothly(const Image& known, const Image& region, Image* normals);
 
+// Median of channel 0 of `values` over the `region` pixels within a
+// (2 radius + 1)^2 window of each region pixel (0 outside the region).
+Image RegionMedian(const Image& values, const Image& region, int radius);
+
 }  // namespace svbrdf

@@ -116,8 +116,8 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
     normal_info["source"] = "capture mesh";
   } else {
     timer->Start("lambertian normals");
-    Image determined;
-    normals = LambertianNormals(obs, {}, fo.threads, &determined);
+    Image determined, misfit;
+    normals = LambertianNormals(obs, {}, fo.threads, &determined, &misfit);
     // Pixels the photos do not determine (dark or mirror-like in nearly
     // every photo) take the membrane of their determined surroundings
     // instead of facing the camera. (A pixel without valid photos is never
@@ -135,7 +135,21 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
                    double(normal_info["lambertian_start"]["mean_deg"]));
     }
     base_depth = MeanDepth(obs);
-    for (int round = 0; round < job.photometric_normal_rounds; ++round) {
+    // Where the Lambertian start misfits its inlier photos (metals,
+    // lobe-dominated paint) the normals are searched under the fitted basis;
+    // the window median keeps isolated pixels (edges, noise) out.
+    Image search = RegionMedian(misfit, obs.region, 7);
+    long searched = 0;
+    for (long p = 0; p < obs.P(); ++p) {
+      float& s = search.pixels[obs.pixel[p]];
+      s = fo.search_misfit == 0 || s > fo.search_misfit ? 1.0f : 0.0f;
+      searched += s > 0.5f;
+    }
+    normal_info["searched_pixels"] = job.photometric_normal_rounds > 0 ? searched : 0;
+    std::fprintf(stderr, "  Lambertian start misfits its photos (relative RMS > %g) on %ld of %d pixels (%.1f %%)%s\n",
+                 fo.search_misfit, searched, obs.P(), 100.0 * searched / std::max(1, obs.P()),
+                 searched > 0 && job.photometric_normal_rounds > 0 ? ": their normals are searched under the basis" : "");
+    for (int round = 0; round < job.photometric_normal_rounds && searched > 0; ++round) {
       timer->Start("height field + shadows");
       depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
       const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, depth, base_depth, normals);
@@ -143,7 +157,7 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
       timer->Start("basis selection");
       sel = SelectBasis(obs, normals, shadowed, fo);
       timer->Start("normal refinement");
-      normals = FillNormals(obs, RefineNormals(obs, sel.basis, normals, shadowed, fo));
+      normals = FillNormals(obs, RefineNormals(obs, sel.basis, normals, shadowed, fo, &search));
       if (truth.width) {
         normal_info["rounds"].push_back(AngularError(normals, truth, obs.region));
         std::fprintf(stderr, "  round %d: %zu basis BRDFs, normals %.2f deg from the truth\n", round + 1,

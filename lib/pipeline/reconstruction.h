@@ -57,13 +57,15 @@ struct ReconstructionJob {
   // Photometric captures (one fixed orthographic view, directional lights;
   // lib/photometric): the per-pixel dictionary fit, and how many rounds of
   // basis selection <-> per-pixel normal search follow the robust Lambertian
-  // normals when the normals are unknown (0: none; on DiLiGenT the search
-  // moved the normals away from the scans', bench_results/diligent.md).
+  // normals when the normals are unknown (0: none). The search runs only
+  // where the Lambertian start misfits its photos
+  // (DictionaryFitOptions::search_misfit): on DiLiGenT's diffuse-glossy
+  // objects it moves the normals away from the scans'.
   DictionaryFitOptions photometric;
   // Indirect light removed from the samples before the fits
   // (indirect/interreflection.h); seed and threads from `estimate`.
   InterreflectionOptions interreflection;
-  int photometric_normal_rounds = 0;
+  int photometric_normal_rounds = 1;
   // Called on the gathered samples before the estimate (bench tools: e.g.
   // an oracle that drops samples by their disagreement with a known truth).
   std::function<void(GatherResult&)> after_gather;
