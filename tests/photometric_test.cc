@@ -236,9 +236,8 @@ TEST(Photometric, MetalNormalsAreSearchedWhereTheLambertianStartMisfits) {
            180 / kPi;
   };
   Image misfit;
-  const Image lambert_start =
-      LambertianNormals(SyntheticObservations(normals, std::vector<Rgb>(20, Rgb(0.5, 0.5, 0.5)), 0.0, lobe), {}, 1,
-                        nullptr, &misfit);
+  LambertianNormals(SyntheticObservations(normals, std::vector<Rgb>(20, Rgb(0.5, 0.5, 0.5)), 0.0, lobe), {}, 1, nullptr,
+                    &misfit);
   for (int p = 0; p < 20; ++p) EXPECT_LT(misfit.at(p, 0, 0), 0.01) << "a Lambertian pixel fits";
   const PsObservations metal = SyntheticObservations(normals, std::vector<Rgb>(20, Rgb::Zero()), 1.0, lobe);
   const Image start = LambertianNormals(metal, {}, 1, nullptr, &misfit);

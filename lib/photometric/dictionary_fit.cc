@@ -131,7 +131,6 @@ Rows BuildRows(const PsObservations& obs, const GreyBasis& basis, long p, const 
   r.K = basis.size();
   const Frame fr = Frame::FromNormal(n);
   const Vec3 wo = fr.ToLocal(obs.to_viewer);
-  const int K = basis.size();
   for (int l = 0; l < obs.lights; ++l) {
     if (use && !(*use)[l]) continue;
     if (shadowed && shadowed[l]) continue;
@@ -141,7 +140,7 @@ Rows BuildRows(const PsObservations& obs, const GreyBasis& basis, long p, const 
     double a[16] = {0};
     if (wi.z() > 0 && wo.z() > 0) basis.Eval(wi, wo, a);
     if (channels == 1) {
-      if (obs.weight[i] <= 0 || obs.weight[i + 1] <= 0 || obs.weight[i + 2] <= 0) continue;
+      if (!obs.UsableRgb(i)) continue;
       const double sw = std::sqrt((double(obs.weight[i]) * obs.weight[i] + double(obs.weight[i + 1]) * obs.weight[i + 1] +
                                    double(obs.weight[i + 2]) * obs.weight[i + 2]) / 3);
       r.Add(a, sw, Luminance(&obs.value[i]) * sw, l, 0);
@@ -293,7 +292,7 @@ Vec3 BrightestHalfVector(const PsObservations& obs, long p, const uint8_t* sh) {
   int light = -1;
   for (int l = 0; l < obs.lights; ++l) {
     const size_t i = obs.At(p, l);
-    if ((sh && sh[l]) || obs.weight[i] <= 0 || obs.weight[i + 1] <= 0 || obs.weight[i + 2] <= 0) continue;
+    if ((sh && sh[l]) || !obs.UsableRgb(i)) continue;
     const double v = Luminance(&obs.value[i]);
     if (v > best) best = v, light = l;
   }

@@ -158,7 +158,7 @@ Image LambertianNormals(const PsObservations& obs, const std::vector<uint8_t>& s
     std::vector<std::pair<double, int>> lum;
     for (int l = 0; l < obs.lights; ++l) {
       const size_t i = obs.At(p, l);
-      if (obs.weight[i] <= 0 || obs.weight[i + 1] <= 0 || obs.weight[i + 2] <= 0) continue;
+      if (!obs.UsableRgb(i)) continue;
       if (!shadowed.empty() && shadowed[size_t(p) * obs.lights + l]) continue;
       lum.emplace_back(0.2126 * obs.value[i] + 0.7152 * obs.value[i + 1] + 0.0722 * obs.value[i + 2], l);
     }

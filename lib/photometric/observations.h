@@ -38,6 +38,9 @@ struct PsObservations {
 
   size_t At(long p, int l) const { return (size_t(p) * lights + l) * 3; }
   int P() const { return int(pixel.size()); }
+  // Whether the value at i = At(p, l) is usable in every channel (what a
+  // luminance fit needs).
+  bool UsableRgb(size_t i) const { return !(weight[i] <= 0 || weight[i + 1] <= 0 || weight[i + 2] <= 0); }
 };
 
 // Reads every photo and mask of `scene` (IsPhotometricCapture must hold);
