@@ -5,14 +5,18 @@
 // principal point (342.28, 235.57) in OpenCV's convention, with k3).
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include <filesystem>
 #include <random>
+#include <thread>
 #include <unistd.h>
 
 #include "calib/board.h"
 #include "calib/colmap_text.h"
 #include "calib/hdr.h"
 #include "calib/intrinsics.h"
+#include "calib/segment.h"
 #include "core/error.h"
 #include "io/exif.h"
 
@@ -241,6 +245,31 @@ TEST(Calib, DebevecMergeOf8BitBracketsIsLinear) {
   // Measured worst 0.85 % (polynomial degree 6; degree 4: 1.75 %, 8: 1.8 %;
   // the free Debevec-Malik response: 2.0 %, OpenCV's: 4.6 %).
   EXPECT_LT(worst, 0.01);  // issue 10: linear within 1 %
+}
+
+// capture segments its views in parallel; GrabCut's k-means draws from the
+// calling thread's RNG, so a mask must not depend on what that thread ran
+// before (a thread-count-dependent mask moved the registered pose and the
+// lamp between runs).
+TEST(Segment, GrabCutMaskDoesNotDependOnTheThreadsRandomState) {
+  const int w = 96, h = 72;
+  Image photo(w, h, 3), prior(w, h, 1);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool inside = std::hypot(x - 48.0, y - 36.0) < 22;
+      for (int c = 0; c < 3; ++c) photo.at(x, y, c) = inside ? 0.3f + 0.5f * u(rng) * (c + 1) / 3 : 0.6f * u(rng);
+      prior.at(x, y, 0) = std::hypot(x - 52.0, y - 33.0) < 24 ? 1.f : 0.f;
+    }
+  const Image first = GrabCutMask(photo, prior, 10);
+  for (int i = 0; i < 1000; ++i) cv::theRNG().next();
+  const Image after_draws = GrabCutMask(photo, prior, 10);
+  Image other_thread;
+  std::thread([&] { other_thread = GrabCutMask(photo, prior, 10); }).join();
+  EXPECT_EQ(first.pixels, after_draws.pixels);
+  EXPECT_EQ(first.pixels, other_thread.pixels);
+  EXPECT_GT(MaskIoU(first, prior), 0.5);
 }
 
 }  // namespace

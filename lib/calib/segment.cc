@@ -1,6 +1,7 @@
 #include "calib/segment.h"
 
 #include <algorithm>
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "calib/board.h"
@@ -54,6 +55,11 @@ Image GrabCutMask(const Image& photo, const Image& prior, int margin_px, int ite
             uint8_t(std::clamp(photo.at(x, y, std::min(c, photo.channels - 1)) * s * 255.0, 0.0, 255.0));
     }
   cv::Mat bgd, fgd;
+  // GrabCut seeds its colour mixtures by k-means, which draws from the
+  // calling thread's RNG; that state depends on what the thread ran before
+  // (views are segmented in parallel), so it is reset: each mask is then a
+  // function of its photo and prior alone, whatever the thread count.
+  cv::theRNG().state = 0x5eedULL;
   cv::grabCut(bgr, labels, cv::Rect(), bgd, fgd, iterations, cv::GC_INIT_WITH_MASK);
   Image out(prior.width, prior.height, 1);
   for (int y = 0; y < prior.height; ++y)
