@@ -24,6 +24,7 @@
 #include "cluster/weights.h"
 #include "core/error.h"
 #include "core/rng.h"
+#include "io/image.h"
 
 namespace svbrdf {
 namespace {
@@ -1131,6 +1132,41 @@ TEST(Cluster, PartitionAgreementIgnoresTheNumbering) {
   std::vector<char> some = all;
   some[6] = 0;  // the disagreeing texel takes no part
   EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, some), 1.0);
+}
+
+// Model selection's display-scale errors (stats.h DisplayScale): a sample
+// and its prediction become the photo's pixel values (x the image's scale),
+// clamped to [0, 1] and sRGB-encoded, as `svbrdf evaluate` scores a photo.
+// A highlight's overshoot above white costs nothing; a pixel-value error
+// costs more in a dark pixel than the same error in a bright one.
+TEST(Stats, DisplayScaleErrorsAreTheScoredPixelValues) {
+  SampleSet s;
+  s.num_texels = 1;
+  s.texel_begin = {0, 3};
+  const float wi[3] = {0, 0, 1}, wo[3] = {0, 0, 1};
+  // Lambert of albedo 0.5 head-on predicts 0.5 / pi per unit geom.
+  const double pred = 0.5 / M_PI;
+  const float y_bright[3] = {float(pred), float(pred), float(pred)};
+  s.Push(0, 0, wi, wo, 1.0f, y_bright);  // image 0: scale 20 -> both far above white
+  const float y_dark[3] = {float(pred - 0.01), float(pred - 0.01), float(pred - 0.01)};
+  s.Push(0, 1, wi, wo, 1.0f, y_dark);    // image 1: scale 0.05 -> dark pixels
+  s.Push(0, 2, wi, wo, 1.0f, y_dark);    // image 2: scale 1
+  const ModelSpec lambert = ModelSpec::FromLabel("lambert");
+  const std::vector<double> albedo = {0.5, 0.5, 0.5};
+  const DisplayScale display = {Rgb::Constant(20.0), Rgb::Constant(0.05), Rgb::Constant(1.0)};
+  const std::vector<int64_t> ids = {0, 1, 2};
+  const std::vector<double> lin = SampleErrors(lambert, albedo, s, ids);
+  const std::vector<double> shown = SampleErrors(lambert, albedo, s, ids, display);
+  EXPECT_NEAR(lin[1], 3e-4, 1e-9);
+  EXPECT_NEAR(lin[2], 3e-4, 1e-9);
+  EXPECT_EQ(shown[0], 0.0);
+  auto srgb = [](double v) { return double(LinearToSrgb(float(v))); };
+  EXPECT_NEAR(shown[1], 3 * std::pow(srgb(0.05 * pred) - srgb(0.05 * (pred - 0.01)), 2), 1e-9);
+  EXPECT_NEAR(shown[2], 3 * std::pow(srgb(pred) - srgb(pred - 0.01), 2), 1e-9);
+  const double dark_pixel_error = 0.05 * 0.01, bright_pixel_error = 0.01;
+  EXPECT_GT(shown[1] / (dark_pixel_error * dark_pixel_error), 5 * shown[2] / (bright_pixel_error * bright_pixel_error));
+  EXPECT_NEAR(SignalRms(s, {0}, display), 1.0, 1e-6);
+  EXPECT_NEAR(SignalRms(s, {0}), pred, 1e-6);
 }
 
 }  // namespace

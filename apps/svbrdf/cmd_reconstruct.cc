@@ -38,6 +38,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--fit-compression", job->estimate.fit.compression,
                 "split-search fits weigh a sample's residual by 1/sqrt(1 + Y/(c x median Y)), Y its brightness\n"
                 "(0 = linear residuals; model selection and final fits are always linear)");
+  c->add_option("--selection-error", job->selection_error,
+                "units of model selection's held-out errors: display (the photos' pixel values, clamped and\n"
+                "sRGB-encoded, as evaluate scores) or linear (radiance per unit light)");
   c->add_option("--max-fit-samples", job->estimate.fit.max_samples, "samples per cluster fit");
   c->add_option("--threads", job->estimate.threads, "worker threads (0 = all cores)");
   c->add_option("--time-budget", job->time_budget_s,

@@ -219,7 +219,8 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     // by a least-squares fit on a small random subset (its held-out error
     // ranks it within a few percent); only the finalists get the full robust
     // fit, warm-started from their screening fit, and decide.
-    const double signal = SignalRms(samples, hold);
+    const DisplayScale& display = o.display_scale;
+    const double signal = SignalRms(samples, hold, display);
     std::vector<Tried> tried(candidates.size());
     ParallelFor(long(candidates.size()), o.threads, [&](long j) {
       const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
@@ -230,7 +231,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       try {
         const FitResult r = FitModel(spec, samples, train, fo,
                                      spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
-        std::vector<double> e = SampleErrors(spec, r.params, samples, hold);
+        std::vector<double> e = SampleErrors(spec, r.params, samples, hold, display);
         tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
       } catch (const Error& e) {
         tried[j] = {spec, FitResult{}, kFailed, {}};
@@ -251,7 +252,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     all.insert(all.end(), held_k.begin(), held_k.end());
     const std::vector<int> fold = PhotoFolds(samples, all, kPhotoFolds, o.seed);
     FitOptions cv = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model cross-validation)"));
-    const double cv_signal = SignalRms(samples, all);
+    const double cv_signal = SignalRms(samples, all, display);
     ParallelFor(long(finalists.size()), o.threads, [&](long f) {
       Tried& t = tried[finalists[f]];
       // The cluster's own model was screened from its split-stage material
@@ -263,9 +264,9 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       const bool warm = t.spec == cl.basis()[k].spec;
       try {
         t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
-        t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params);
+        t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params, display);
         t.rmse = TrimmedRmse(t.errors);
-        t.held_errors = SampleErrors(t.spec, t.fit.params, samples, hold);
+        t.held_errors = SampleErrors(t.spec, t.fit.params, samples, hold, display);
         t.held_rmse = TrimmedRmse(t.held_errors);
       } catch (const Error& e) {
         t.rmse = kFailed, t.errors.clear(), t.failed = e.what();

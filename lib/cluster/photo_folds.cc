@@ -30,7 +30,7 @@ std::vector<int> PhotoFolds(const SampleSet& s, const std::vector<int64_t>& ids,
 
 std::vector<double> OutOfFoldErrors(const ModelSpec& spec, const SampleSet& s, const std::vector<int64_t>& ids,
                                     const std::vector<int>& fold, const FitOptions& fo,
-                                    const std::vector<double>& init) {
+                                    const std::vector<double>& init, const DisplayScale& display) {
   const int F = fold.empty() ? 0 : *std::max_element(fold.begin(), fold.end()) + 1;
   std::vector<double> err(ids.size(), 0.0);
   for (int f = 0; f < F; ++f) {
@@ -42,7 +42,7 @@ std::vector<double> OutOfFoldErrors(const ModelSpec& spec, const SampleSet& s, c
     }
     if (test.empty()) continue;
     const FitResult r = FitModel(spec, s, train.empty() ? ids : train, fo, init);
-    const std::vector<double> e = SampleErrors(spec, r.params, s, test);
+    const std::vector<double> e = SampleErrors(spec, r.params, s, test, display);
     for (size_t j = 0; j < e.size(); ++j) err[where[j]] = e[j];
   }
   return err;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cluster/clustering.h"
+#include "cluster/stats.h"
 
 namespace svbrdf {
 
@@ -21,9 +22,10 @@ std::vector<int> PhotoFolds(const SampleSet& s, const std::vector<int64_t>& ids,
 // Out-of-fold squared errors (summed over channels) of `spec` on every
 // sample of `ids`: per fold, a least-squares fit (`fo`, from `init`) to the
 // samples of the other folds. A fold whose complement is empty keeps the
-// in-sample error of a fit on all of `ids`.
+// in-sample error of a fit on all of `ids`. Errors on `display`'s scale
+// when it is non-empty (SampleErrors).
 std::vector<double> OutOfFoldErrors(const ModelSpec& spec, const SampleSet& s, const std::vector<int64_t>& ids,
                                     const std::vector<int>& fold, const FitOptions& fo,
-                                    const std::vector<double>& init);
+                                    const std::vector<double>& init, const DisplayScale& display = {});
 
 }  // namespace svbrdf

@@ -118,6 +118,10 @@ struct ReconstructOptions {
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels
   double parsimony = 0.001;      // prefer fewer parameters unless the best's RMSE is lower by this x signal RMS
   int64_t selection_samples = 3000;  // samples per candidate fit during model selection
+  // Model selection's errors on the photos' display scale (stats.h
+  // DisplayScale: per image, pixel value per unit sample value; set from the
+  // capture by the pipeline), or linear when empty (`--selection-error linear`).
+  std::vector<Rgb> display_scale;
   int refine_iterations = 2;
   // Per-texel weights mix the materials of every cluster within this many
   // texels (Chebyshev distance in the atlas): blends wider than one texel and

@@ -4,19 +4,28 @@
 #include <cmath>
 
 #include "fit/fit.h"
+#include "io/image.h"
 
 namespace svbrdf {
 
 namespace {
 inline double Sq(double x) { return x * x; }
+
+// A value of sample `i`'s channel c as `display` shows it (identity when empty).
+inline double Shown(double v, const DisplayScale& display, const SampleSet& s, int64_t i, int c) {
+  if (display.empty()) return v;
+  return LinearToSrgb(float(std::clamp(v * display[size_t(s.image[i])][c], 0.0, 1.0)));
+}
 }  // namespace
 
 std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
-                                 const std::vector<int64_t>& ids) {
+                                 const std::vector<int64_t>& ids, const DisplayScale& display) {
   std::vector<double> e(ids.size());
   for (size_t j = 0; j < ids.size(); ++j) {
-    const Rgb p = PredictSample(spec, params.data(), s, ids[j]);
-    e[j] = Sq(p[0] - s.y[0][ids[j]]) + Sq(p[1] - s.y[1][ids[j]]) + Sq(p[2] - s.y[2][ids[j]]);
+    const int64_t i = ids[j];
+    const Rgb p = PredictSample(spec, params.data(), s, i);
+    e[j] = 0;
+    for (int c = 0; c < 3; ++c) e[j] += Sq(Shown(p[c], display, s, i, c) - Shown(s.y[c][i], display, s, i, c));
   }
   return e;
 }
@@ -30,9 +39,10 @@ double TrimmedRmse(std::vector<double> e) {
   return std::sqrt(sum / (3.0 * keep));
 }
 
-double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids) {
+double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids, const DisplayScale& display) {
   double signal = 0;
-  for (int64_t i : ids) signal += Sq(samples.y[0][i]) + Sq(samples.y[1][i]) + Sq(samples.y[2][i]);
+  for (int64_t i : ids)
+    for (int c = 0; c < 3; ++c) signal += Sq(Shown(samples.y[c][i], display, samples, i, c));
   return std::sqrt(signal / std::max<double>(1.0, 3.0 * ids.size()));
 }
 

@@ -9,17 +9,30 @@
 
 namespace svbrdf {
 
-// Per-sample squared residuals (summed over channels) of a model on samples `ids`.
+// Where model selection measures errors. Empty: linear, in the samples'
+// units (reflected radiance per unit light). Otherwise per image (indexed as
+// SampleSet::image) the photo's pixel value per unit sample value, per
+// channel (its exposure x its light's colour): a sample and its prediction
+// are brought to the photo's pixel values, clamped to [0, 1] and
+// sRGB-encoded, the units held-out photos are scored in (svbrdf evaluate).
+// Linear errors let the few brightest samples (a highlight's peak, which the
+// photo may not even resolve below saturation) decide between models that
+// differ in the dark flanks and the diffuse most of every picture shows.
+using DisplayScale = std::vector<Rgb>;
+
+// Per-sample squared residuals (summed over channels) of a model on samples
+// `ids`, linear or on the display scale `display` (when non-empty).
 std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
-                                 const std::vector<int64_t>& ids);
+                                 const std::vector<int64_t>& ids, const DisplayScale& display = {});
 
 // RMS residual per channel without the largest 2 % of per-sample errors:
 // held-out samples of texels that the assignment got wrong must not decide
 // which model describes the cluster.
 double TrimmedRmse(std::vector<double> e);
 
-// RMS of the samples' values per channel (the scale of "parsimony" margins).
-double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids);
+// RMS of the samples' values per channel (the scale of "parsimony" margins),
+// linear or on the display scale `display` (when non-empty).
+double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids, const DisplayScale& display = {});
 
 // Paired z statistic: how many standard errors the mean of `b` lies below `a`.
 double PairedZ(const std::vector<double>& a, const std::vector<double>& b);

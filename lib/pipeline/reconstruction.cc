@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "atlas/surface_neighbours.h"
+#include "cluster/stats.h"
 #include "cluster/weights.h"
 #include "core/error.h"
 #include "core/progress.h"
@@ -102,6 +103,26 @@ nlohmann::json WriteTwin(const Material& material, const Scene& scene, size_t in
           {"relight", ro.SamplingDescription()}};
 }
 
+namespace {
+
+// Per image, the pixel value per unit sample value (samples.h: y_c = value_c
+// / exposure x mean_c(E) / E_c): the exposure times the light's colour, its
+// channels over their mean.
+DisplayScale DisplayScaleOf(const Scene& scene) {
+  DisplayScale out;
+  for (const ImageEntry& e : scene.images) {
+    const Light& l = scene.LightById(e.light);
+    Rgb colour = Rgb::Ones();
+    if (l.type == LightType::kDirectional) colour = l.irradiance;
+    else if (l.type != LightType::kGoniometric) colour = l.intensity;
+    if (!(colour.mean() > 0)) colour = Rgb::Ones();
+    out.push_back(e.exposure * colour / colour.mean());
+  }
+  return out;
+}
+
+}  // namespace
+
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   StageTimer timer;
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
@@ -113,6 +134,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   for (const auto& [name, v] : {std::pair{"--fit-max-unlit-share", job.fit_max_unlit_share},
                                 std::pair{"--fit-max-foreign-share", job.fit_max_foreign_share}})
     if (!(v >= 0 && v <= 1)) throw Error(Msg("reconstruct: ", name, " must be in [0, 1], got ", v));
+  if (job.selection_error != "display" && job.selection_error != "linear")
+    throw Error(Msg("reconstruct: --selection-error must be display or linear, got \"", job.selection_error, "\""));
   const RenderTarget target = ParseRenderTarget(job.render_target);
   if (target != RenderTarget::kAny && !job.estimate.force_model.empty() &&
       !RendersExactly(ModelSpec::FromLabel(job.estimate.force_model), target))
@@ -142,6 +165,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   timer.Start("fit + cluster");
   ReconstructOptions eo = job.estimate;
   eo.candidate_models = CandidatesFor(target, eo.candidate_models);
+  if (job.selection_error == "display") eo.display_scale = DisplayScaleOf(scene);
   if (target != RenderTarget::kAny)
     std::fprintf(stderr, "  --for %s: candidate models %s\n", RenderTargetName(target).c_str(),
                  nlohmann::json(eo.candidate_models).dump().c_str());

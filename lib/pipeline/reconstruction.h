@@ -66,6 +66,10 @@ struct ReconstructionJob {
   // (indirect/interreflection.h); seed and threads from `estimate`.
   InterreflectionOptions interreflection;
   int photometric_normal_rounds = 1;
+  // Units of model selection's errors: "display" (each photo's pixel values,
+  // clamped and sRGB-encoded, as held-out photos are scored; stats.h
+  // DisplayScale) or "linear" (reflected radiance per unit light).
+  std::string selection_error = "display";
   // Called on the gathered samples before the estimate (bench tools: e.g.
   // an oracle that drops samples by their disagreement with a known truth).
   std::function<void(GatherResult&)> after_gather;
