@@ -32,6 +32,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--min-split-coherence", job->estimate.min_split_coherence,
                 "a split's halves must form regions: 1 - (neighbour pairs split) / (that share for random labels),\n"
                 "in [0, 1] (0 = no such test)");
+  c->add_option("--mix-radius", job->estimate.mix_radius,
+                "the split search's measure mixes into a texel the materials of clusters within this many texels\n"
+                "(1-8)");
   c->add_option("--max-failed-splits", job->estimate.max_failed_splits,
                 "the split search stops after this many splits in a row that did not improve on the best state");
   c->add_option("--robust", job->estimate.robust_scale, "Cauchy loss scale of cluster fits (-1 = automatic, 0 = least squares)");
