@@ -13,8 +13,11 @@ set -euo pipefail
 BIN=$(realpath "$1")
 HERE=$(cd "$(dirname "$0")" && pwd)
 MI=${SVBRDF_MITSUBA_PYTHON:-/work/scratch/mi/bin/python}
-if ! "$MI" -c "import mitsuba" 2> /dev/null; then
-  echo "test_front_half: Mitsuba 3 not found ($MI); set SVBRDF_MITSUBA_PYTHON (python3 -m venv V && V/bin/pip install mitsuba numpy)"
+# The raw-set renderer also draws ChArUco boards with pip's OpenCV (Debian's
+# 4.6 lacks CharucoBoard.setLegacyPattern).
+if ! "$MI" -c "import mitsuba, cv2; cv2.aruco.CharucoBoard.setLegacyPattern" 2> /dev/null; then
+  echo "test_front_half: Mitsuba 3 with OpenCV >= 4.7 not found ($MI); set SVBRDF_MITSUBA_PYTHON" \
+    "(/usr/bin/python3 -m venv V && V/bin/pip install mitsuba numpy opencv-python-headless)"
   exit 77
 fi
 WORK=$(mktemp -d /tmp/svbrdf_front_half_XXXXXX)

@@ -1166,6 +1166,10 @@ TEST(Stats, DisplayScaleErrorsAreTheScoredPixelValues) {
   const double dark_pixel_error = 0.05 * 0.01, bright_pixel_error = 0.01;
   EXPECT_GT(shown[1] / (dark_pixel_error * dark_pixel_error), 5 * shown[2] / (bright_pixel_error * bright_pixel_error));
   EXPECT_NEAR(SignalRms(s, {0}, display), 1.0, 1e-6);
+  // One of the three samples is shown at white: model selection's fallback
+  // to linear errors looks at this share.
+  EXPECT_NEAR(ClippedShare(s, ids, display), 1.0 / 3.0, 1e-12);
+  EXPECT_EQ(ClippedShare(s, ids, {}), 0.0);
   EXPECT_NEAR(SignalRms(s, {0}), pred, 1e-6);
 }
 

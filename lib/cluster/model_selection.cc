@@ -34,6 +34,9 @@ constexpr size_t kFinalists = 3;
 // Photo folds of the finalists' cross-validation (5: each fit sees 80 % of
 // the photos, as the clustering's own hold-out leaves).
 constexpr int kPhotoFolds = 5;
+// Above this share of samples shown at white (ClippedShare), display-unit
+// errors cannot rank the models: linear errors instead.
+constexpr double kMaxClippedShare = 0.2;
 
 }  // namespace
 
@@ -214,13 +217,19 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     const auto cluster_start = std::chrono::steady_clock::now();
     std::vector<int64_t> hold = cl.Ids(k, true), train = cl.Ids(k, false);
     if (candidates.size() > 1) ValidationSamples(cl, k, &train, &hold);
+    std::vector<int64_t> all = cl.Ids(k, false), held_k = cl.Ids(k, true);
+    all.insert(all.end(), held_k.begin(), held_k.end());
+    const double clipped = ClippedShare(samples, all, o.display_scale);
+    const bool linear = clipped > kMaxClippedShare;
+    if (linear)
+      log(Msg("cluster ", k, ": ", 100 * clipped, " % of its samples are white in the photos; model errors in linear units"));
+    const DisplayScale display = linear ? DisplayScale() : o.display_scale;
+    const double signal = SignalRms(samples, hold, display);
     // Candidates are independent small fits: one per thread pays better than
     // threads inside each Ceres solve. Two rounds: every candidate is screened
     // by a least-squares fit on a small random subset (its held-out error
     // ranks it within a few percent); only the finalists get the full robust
     // fit, warm-started from their screening fit, and decide.
-    const DisplayScale& display = o.display_scale;
-    const double signal = SignalRms(samples, hold, display);
     std::vector<Tried> tried(candidates.size());
     ParallelFor(long(candidates.size()), o.threads, [&](long j) {
       const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
@@ -248,8 +257,6 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     // Without the cross-validation the held-out photos alone choose worse
     // models with few photos (default preset at 8 photos, mixed_tiny).
     // The basis itself is the fit on the training samples.
-    std::vector<int64_t> all = cl.Ids(k, false), held_k = cl.Ids(k, true);
-    all.insert(all.end(), held_k.begin(), held_k.end());
     const std::vector<int> fold = PhotoFolds(samples, all, kPhotoFolds, o.seed);
     FitOptions cv = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model cross-validation)"));
     const double cv_signal = SignalRms(samples, all, display);

@@ -39,6 +39,17 @@ double TrimmedRmse(std::vector<double> e) {
   return std::sqrt(sum / (3.0 * keep));
 }
 
+double ClippedShare(const SampleSet& s, const std::vector<int64_t>& ids, const DisplayScale& display) {
+  if (display.empty() || ids.empty()) return 0.0;
+  int64_t clipped = 0;
+  for (int64_t i : ids) {
+    bool white = false;
+    for (int c = 0; c < 3; ++c) white |= s.y[c][i] * display[size_t(s.image[i])][c] >= 1.0;
+    clipped += white;
+  }
+  return double(clipped) / double(ids.size());
+}
+
 double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids, const DisplayScale& display) {
   double signal = 0;
   for (int64_t i : ids)

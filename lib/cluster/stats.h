@@ -30,6 +30,12 @@ std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double
 // which model describes the cluster.
 double TrimmedRmse(std::vector<double> e);
 
+// Share of the samples `ids` that `display` shows at white (some channel at
+// or above 1): clamped, they cannot tell models apart. Model selection falls
+// back to linear errors for a cluster where this share is large (photos
+// stored at a radiance scale far above their display range).
+double ClippedShare(const SampleSet& s, const std::vector<int64_t>& ids, const DisplayScale& display);
+
 // RMS of the samples' values per channel (the scale of "parsimony" margins),
 // linear or on the display scale `display` (when non-empty).
 double SignalRms(const SampleSet& samples, const std::vector<int64_t>& ids, const DisplayScale& display = {});
