@@ -18,6 +18,7 @@
 #include "cluster/model_selection.h"
 #include "cluster/nnls.h"
 #include "cluster/photo_folds.h"
+#include "cluster/prune.h"
 #include "cluster/reconstruct.h"
 #include "cluster/split.h"
 #include "cluster/stats.h"
@@ -1171,6 +1172,43 @@ TEST(Stats, DisplayScaleErrorsAreTheScoredPixelValues) {
   EXPECT_NEAR(ClippedShare(s, ids, display), 1.0 / 3.0, 1e-12);
   EXPECT_EQ(ClippedShare(s, ids, {}), 0.0);
   EXPECT_NEAR(SignalRms(s, {0}), pred, 1e-6);
+}
+
+// Three clusters on a w x h grid: x < a, a <= x < b, x >= b.
+int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMaterial>& basis, int a, int b) {
+  ReconstructOptions o = Quiet();
+  const Atlas atlas = GridAtlas(w, h);
+  Clustering cl(s, atlas, o);
+  for (int k = 0; k < 3; ++k) cl.SetBasis(k, basis[k]);
+  for (int t = 0; t < w * h; ++t) cl.assign()[t] = t % w < a ? 0 : t % w < b ? 1 : 2;
+  WeightModel m;
+  m.radius = 8;
+  m.unit_sum_samples = 1000.0;
+  SvbrdfEstimate est;
+  const int removed = PruneMaterials(cl, m, &est, StageLog(o.progress));
+  EXPECT_EQ(cl.K(), 3 - removed);
+  return removed;
+}
+
+TEST(Prune, ABlendZoneIsNotAMaterial) {
+  // Two paints with a 16-texel ramp between them, the ramp's middle given a
+  // material of its own (its mean colour): the weights mix the two paints
+  // there, so the third material does not earn its place.
+  const std::vector<BasisMaterial> paints = {Lambert(0.6, 0.1, 0.1), Lambert(0.1, 0.42, 0.14)};
+  const int w = 40, h = 12;
+  std::vector<std::vector<double>> mix;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double b = std::clamp((x - 12.0) / 16.0, 0.0, 1.0);
+      mix.push_back({1.0 - b, b});
+    }
+  const SampleSet blend = MakeMixedSamples(paints, mix, 41);
+  EXPECT_EQ(PrunedMaterials(blend, w, h, {paints[0], Lambert(0.35, 0.26, 0.12), paints[1]}, 16, 24), 1);
+  // Control: three paints side by side, each one a material.
+  const std::vector<BasisMaterial> three = {Lambert(0.6, 0.1, 0.1), Lambert(0.35, 0.26, 0.12), Lambert(0.1, 0.42, 0.14)};
+  std::vector<int> label(w * h);
+  for (int t = 0; t < w * h; ++t) label[t] = t % w < 16 ? 0 : t % w < 24 ? 1 : 2;
+  EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24), 0);
 }
 
 }  // namespace

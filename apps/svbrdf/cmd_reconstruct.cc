@@ -115,6 +115,11 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_flag("--basis-refit,!--no-basis-refit", job->estimate.refit_basis_on_weights,
               "refit the basis materials given the mixing weights (kept where the held-out error of their interior "
               "texels falls)");
+  c->add_flag("--prune,!--no-prune", job->estimate.prune_materials,
+              "after the weight model is chosen: remove a basis material that the others, mixed by the weights, explain\n"
+              "about as well (the split search's bar run backwards; on by default, --no-prune: off)");
+  c->add_option("--prune-min-drop", job->estimate.prune_min_drop,
+                "pruning: relative drop of the held-out error a material must bring to stay (default 0.1)");
   c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");

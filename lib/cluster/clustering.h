@@ -52,6 +52,9 @@ struct WeightModel {
   // brightness of its own. 0: free brightness (the cluster's material at the
   // brightness that fits the texel best is the prior's target).
   double unit_sum_samples = 0.0;
+  // Held-out errors on this display scale (stats.h; null or empty: linear).
+  // Only the scoring changes: the weights are fitted on linear samples.
+  const std::vector<Rgb>* display = nullptr;
   std::string Label() const;
 };
 

@@ -6,6 +6,7 @@
 #include "cluster/clustering.h"
 #include "cluster/confidence.h"
 #include "cluster/model_selection.h"
+#include "cluster/prune.h"
 #include "cluster/quality.h"
 #include "cluster/split.h"
 #include "cluster/weights.h"
@@ -14,8 +15,8 @@
 namespace svbrdf {
 
 namespace {
-void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, bool refit_basis, const StageLog& log,
-                    SvbrdfEstimate* est);
+void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, bool refit_basis, bool prune,
+                    const StageLog& log, SvbrdfEstimate* est);
 }  // namespace
 
 SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
@@ -62,7 +63,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
     throw Error(Msg("reconstruct: the fit samples (", fit_samples->size(), " on ", fit_samples->num_texels,
                     " texels) are not a subset of the ", samples.num_texels, " texels' samples"));
   if (!subset && !(o.fit.compression > 0)) {
-    FinishEstimate(cl, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
+    FinishEstimate(cl, atlas, search_seconds, o.refit_basis_on_weights, true, log, &est);
     return est;
   }
   // Steps 3-6 on the fit samples: the search's partition and materials carry over.
@@ -70,7 +71,7 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   for (int k = 0; k < cl.K(); ++k) fit.SetBasis(k, cl.basis()[k]);
   fit.assign() = cl.assign();
   if (subset) log(Msg("fits and weights on ", fit_samples->size(), " of the ", samples.size(), " samples"));
-  FinishEstimate(fit, atlas, search_seconds, o.refit_basis_on_weights, log, &est);
+  FinishEstimate(fit, atlas, search_seconds, o.refit_basis_on_weights, true, log, &est);
   return est;
 }
 
@@ -96,15 +97,15 @@ SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const R
   // the refined normals' frames and polish the basis with the tilts; a refit
   // on the weights inside them drifts (default_bump: the final photo check
   // and the held-out views get worse; bench_results/independent.md).
-  FinishEstimate(cl, atlas, 0.0, false, log, &est);
+  FinishEstimate(cl, atlas, 0.0, false, false, log, &est);
   return est;
 }
 
 namespace {
 
 // Steps 3-6 of EstimateSvbrdf on a clustering state (shared with RefitSvbrdf).
-void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, bool refit_basis, const StageLog& log,
-                    SvbrdfEstimate* est_out) {
+void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, bool refit_basis, bool prune,
+                    const StageLog& log, SvbrdfEstimate* est_out) {
   SvbrdfEstimate& est = *est_out;
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
@@ -121,7 +122,10 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   }
 
   // 4. Mixing weights: scalar or per channel, and how far materials mix, by held-out error (weights.cc).
-  const WeightModel weight_model = ChooseWeightModel(cl, &est, log);
+  WeightModel weight_model = ChooseWeightModel(cl, &est, log);
+  // 4a. Materials the others, mixed by these weights, explain (prune.h);
+  // the weight model is chosen again for the materials that remain.
+  if (prune && PruneMaterials(cl, weight_model, &est, log) > 0) weight_model = ChooseWeightModel(cl, &est, log);
   // 4b. The basis refitted given the weights (basis_refit.h).
   // Only where every cluster's model explains its samples: the refit
   // subtracts the other materials' predicted shares, which model error

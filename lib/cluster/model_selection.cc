@@ -34,9 +34,6 @@ constexpr size_t kFinalists = 3;
 // Photo folds of the finalists' cross-validation (5: each fit sees 80 % of
 // the photos, as the clustering's own hold-out leaves).
 constexpr int kPhotoFolds = 5;
-// Above this share of samples shown at white (ClippedShare), display-unit
-// errors cannot rank the models: linear errors instead.
-constexpr double kMaxClippedShare = 0.2;
 
 }  // namespace
 

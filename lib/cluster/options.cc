@@ -12,6 +12,8 @@ void ReconstructOptions::Check() const {
   if (force_clusters < 0 || force_clusters > 16) throw Error(Msg("reconstruct: --clusters must be in [0, 16], got ", force_clusters));
   if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) throw Error("reconstruct: holdout fraction must be in (0, 0.9)");
   if (!(min_improvement >= 0)) throw Error("reconstruct: min improvement must be >= 0");
+  if (!(prune_min_drop >= 0 && prune_min_drop < 1))
+    throw Error(Msg("reconstruct: prune min drop must be in [0, 1), got ", prune_min_drop));
   if (!(control_min_share >= 0 && control_min_share <= 1))
     throw Error("reconstruct: control min share must be in [0, 1]");
   if (max_failed_splits < 1 || max_failed_splits > 20)

@@ -137,6 +137,17 @@ struct ReconstructOptions {
   // of the texels it dominates, the others' share (weights x predictions)
   // subtracted; kept when the held-out error falls.
   bool refit_basis_on_weights = true;
+  // Step 4a (prune.h): after the weight model is chosen, a basis material
+  // that the others mixed by the weights explain about as well (by the split
+  // search's own bar) is removed, weakest first (`--prune` / `--no-prune`).
+  bool prune_materials = true;
+  // The relative drop of the held-out error (TrimmedDrop, display units) a
+  // material must bring to stay in pruning; higher than the split search's
+  // `min_improvement`, which lets through, one split at a time, halves whose
+  // gain the final weights take back. On the generalization benchmark's dev
+  // half true materials and extra ones lie far apart on this measure, with
+  // this bar between them (docs/measurements.md).                       [0, 1)
+  double prune_min_drop = 0.1;
   int min_samples = 3;           // per texel, for confident weights (confidence map)
   // Per texel, to take part in fits and in the split search's held-out
   // measure. One: cluster fits pool all their texels, and a texel's weights

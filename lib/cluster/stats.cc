@@ -10,13 +10,12 @@ namespace svbrdf {
 
 namespace {
 inline double Sq(double x) { return x * x; }
+}  // namespace
 
-// A value of sample `i`'s channel c as `display` shows it (identity when empty).
-inline double Shown(double v, const DisplayScale& display, const SampleSet& s, int64_t i, int c) {
+double Shown(double v, const DisplayScale& display, const SampleSet& s, int64_t i, int c) {
   if (display.empty()) return v;
   return LinearToSrgb(float(std::clamp(v * display[size_t(s.image[i])][c], 0.0, 1.0)));
 }
-}  // namespace
 
 std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
                                  const std::vector<int64_t>& ids, const DisplayScale& display) {

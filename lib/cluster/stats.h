@@ -35,6 +35,12 @@ double TrimmedRmse(std::vector<double> e);
 // back to linear errors for a cluster where this share is large (photos
 // stored at a radiance scale far above their display range).
 double ClippedShare(const SampleSet& s, const std::vector<int64_t>& ids, const DisplayScale& display);
+// Above this share of samples shown at white, display-unit errors cannot
+// rank models or materials: linear errors instead.
+constexpr double kMaxClippedShare = 0.2;
+
+// Value v of sample i's channel c as `display` shows it (identity when empty).
+double Shown(double v, const DisplayScale& display, const SampleSet& s, int64_t i, int c);
 
 // RMS of the samples' values per channel (the scale of "parsimony" margins),
 // linear or on the display scale `display` (when non-empty).

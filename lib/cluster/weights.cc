@@ -48,6 +48,7 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
   const std::vector<uint8_t> dist = ClusterDistances();
   std::vector<double> sse(nt_, 0.0);
   std::vector<int64_t> cnt(nt_, 0);
+  const bool shown = m.display && !m.display->empty();
   if (weights) weights->assign(size_t(nt_) * K * 3, 0.0f);
   if (residual) residual->assign(nt_, 0.0f);
   ParallelFor(nt_, o_.threads, [&](long t) {
@@ -149,7 +150,8 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
       for (int c = 0; c < 3; ++c) {
         double q = 0;
         for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
-        err += (q - s_.y[c][i]) * (q - s_.y[c][i]);
+        if (shown) err += Sq(Shown(q, *m.display, s_, i, c) - Shown(s_.y[c][i], *m.display, s_, i, c));
+        else err += (q - s_.y[c][i]) * (q - s_.y[c][i]);
         ++n;
       }
     }

@@ -1,0 +1,104 @@
+#include "cluster/prune.h"
+
+#include <algorithm>
+#include <string>
+
+#include "cluster/stats.h"
+#include "core/error.h"
+
+namespace svbrdf {
+
+namespace {
+
+struct Removal {
+  int k = -1;
+  double drop = 0, z = 0;  // how much lower the error is with material k (TrimmedDrop, paired z)
+  std::vector<BasisMaterial> basis;
+  std::vector<int> assign;
+};
+
+// The clustering without basis material k: its texels join the remaining
+// material that explains them best. The remaining materials stay as fitted:
+// refitted on the removed cluster's texels, a blend zone would pull their
+// colours towards the blend, which the weights' prior on their sum then
+// cannot undo (the basis refit on the weights, step 4b, follows).
+Removal WithoutMaterial(const Clustering& cl, int k) {
+  Clustering trial = cl;
+  trial.RemoveBasis(k);
+  trial.Assign();
+  return {k, 0, 0, trial.basis(), trial.assign()};
+}
+
+// Share of cluster k's samples (all clusters when k < 0) that are held out.
+double HeldOutShare(const Clustering& cl, int k) {
+  const double held = double(cl.Ids(k, true).size()), train = double(cl.Ids(k, false).size());
+  return held + train > 0 ? held / (held + train) : 0.0;
+}
+
+void Restore(const Removal& r, Clustering& cl) {
+  while (cl.K() > int(r.basis.size())) cl.RemoveBasis(cl.K() - 1);
+  for (size_t j = 0; j < r.basis.size(); ++j) cl.SetBasis(int(j), r.basis[j]);
+  cl.assign() = r.assign;
+}
+
+}  // namespace
+
+int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstimate* est, const StageLog& log) {
+  const ReconstructOptions& o = cl.options();
+  if (!o.prune_materials || o.force_clusters > 0) return 0;
+  // Errors in the units held-out photos are scored in, as model selection's
+  // (stats.h DisplayScale), unless too many samples are white there.
+  WeightModel m = weight_model;
+  const std::vector<int64_t> held = cl.Ids(-1, true);
+  const bool display = !o.display_scale.empty() && ClippedShare(cl.samples(), held, o.display_scale) <= kMaxClippedShare;
+  if (display) m.display = &o.display_scale;
+  log(Msg("material pruning: held-out errors ", display ? "in display units" : "linear"));
+  int removed = 0;
+  while (cl.K() >= 2 && o.SecondsLeft() > 0) {
+    const double capture_share = HeldOutShare(cl, -1);
+    std::vector<double> with_sse;
+    cl.HeldoutRmse(m, &with_sse);
+    const Removal current{-1, 0, 0, cl.basis(), cl.assign()};
+    Removal weakest;
+    std::string lines;
+    for (int k = 0; k < cl.K(); ++k) {
+      // With far fewer held-out samples on its texels than the capture has
+      // (photos that did not see its region) the test cannot see what a
+      // material explains: it stays.
+      const double share = HeldOutShare(cl, k);
+      if (!(share >= 0.5 * capture_share)) {
+        lines += Msg("; m", k, ": ", 100 * share, " % of its samples held out (capture ", 100 * capture_share,
+                     " %), kept untested");
+        continue;
+      }
+      Removal r = WithoutMaterial(cl, k);
+      Restore(r, cl);
+      std::vector<double> without_sse;
+      cl.HeldoutRmse(m, &without_sse);
+      Restore(current, cl);
+      r.drop = TrimmedDrop(without_sse, with_sse);
+      r.z = std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse));
+      lines += Msg("; m", k, " (", cl.basis()[k].spec.Label(), ", ",
+                   std::count(current.assign.begin(), current.assign.end(), k), " texels) ", 100 * r.drop,
+                   " % lower with it, z = ", r.z);
+      const bool earns = r.drop >= o.prune_min_drop && r.z >= o.min_z;
+      if (!earns && (weakest.k < 0 || r.drop < weakest.drop)) weakest = std::move(r);
+      if (o.SecondsLeft() <= 0) break;
+    }
+    log(Msg("material pruning, ", cl.K(), " materials (held-out error with each one against without it", lines, ")"));
+    if (weakest.k < 0) break;
+    const int k = weakest.k;
+    log(Msg("removed m", k, " (", cl.basis()[k].spec.Label(), "): its texels are explained by the other materials ",
+            "(", 100 * weakest.drop, " % lower with it, z = ", weakest.z, ")"));
+    Restore(weakest, cl);
+    auto& choices = est->model_choices;
+    choices.erase(std::remove_if(choices.begin(), choices.end(), [k](const ModelChoice& c) { return c.cluster == k; }),
+                  choices.end());
+    for (ModelChoice& c : choices)
+      if (c.cluster > k) --c.cluster;
+    ++removed;
+  }
+  return removed;
+}
+
+}  // namespace svbrdf

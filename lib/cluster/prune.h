@@ -1,0 +1,32 @@
+// Backward elimination of basis materials (step 4a of EstimateSvbrdf, after
+// the weight model is chosen): every basis material must still earn its
+// place once the final weights mix neighbouring materials.
+//
+// Why: the split search accepts a split by its own held-out measure (one
+// weight pass, a fixed mixing radius), one split at a time. A blend zone
+// between two materials, or a part of one material whose fit specialises to
+// the directions its texels saw, can pass that test early and stay a basis
+// material after the weights (wider radius, a prior on their sum) would
+// represent it as a mixture of the others. On the generalization benchmark
+// every wrong material count was one too many or more, with extra materials
+// along region borders (bench_results/generalization.md).
+//
+// The test is the split search's run backwards: material k is removed (its
+// texels go to the remaining material that explains them best, the others
+// keep their fits) and kept only if the held-out error of the chosen weight
+// model is lower with it by `prune_min_drop` (TrimmedDrop) and by `min_z`
+// standard errors (paired over texels), in display units as model selection
+// measures (linear when too many samples are white there). The bar is above
+// the split search's `min_improvement`: a split is judged before the final
+// weights exist, a material after. The weakest material goes first; the test
+// repeats while one fails. A material with far fewer held-out samples than
+// the capture (its region unseen by the held-out photos) stays untested.
+#pragma once
+#include "cluster/clustering.h"
+
+namespace svbrdf {
+
+// Returns how many materials were removed (est->model_choices renumbered).
+int PruneMaterials(Clustering& cl, const WeightModel& m, SvbrdfEstimate* est, const StageLog& log);
+
+}  // namespace svbrdf
