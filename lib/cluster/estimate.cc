@@ -86,6 +86,7 @@ SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const R
   Clustering cl(samples, atlas, linear);
   SvbrdfEstimate est;
   est.history = previous.history;
+  est.pruned = previous.pruned;
   const StageLog log(o.progress);
   cl.stage = "refit";
   // The partition of `previous` (texels without a label join cluster 0;

@@ -90,6 +90,8 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
     const int k = weakest.k;
     log(Msg("removed m", k, " (", cl.basis()[k].spec.Label(), "): its texels are explained by the other materials ",
             "(", 100 * weakest.drop, " % lower with it, z = ", weakest.z, ")"));
+    est->pruned.push_back({cl.basis()[k].spec.Label(),
+                           int(std::count(current.assign.begin(), current.assign.end(), k)), weakest.drop, weakest.z});
     Restore(weakest, cl);
     auto& choices = est->model_choices;
     choices.erase(std::remove_if(choices.begin(), choices.end(), [k](const ModelChoice& c) { return c.cluster == k; }),

@@ -236,6 +236,14 @@ struct SvbrdfEstimate {
   double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;
   std::vector<ClusterQuality> cluster_quality;
   std::vector<std::string> cut_by_deadline;  // stages shortened or skipped by ReconstructOptions::deadline
+  // Basis materials the pruning removed after the split search's choice
+  // (prune.h), in order: model label, texels, the held-out error drop it brought.
+  struct Pruned {
+    std::string label;
+    int texels = 0;
+    double drop = 0, z = 0;
+  };
+  std::vector<Pruned> pruned;
 };
 
 // `fit_samples` (optional, a subset of `samples` on the same atlas): the

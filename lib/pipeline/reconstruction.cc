@@ -292,6 +292,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     summary["cluster_history"].push_back(
         {{"clusters", h.clusters}, {"train_rmse", h.train_rmse}, {"heldout_rmse", h.heldout_rmse}, {"accepted", h.accepted}});
   summary["states_revisited"] = est.states_revisited;
+  summary["pruned_materials"] = nlohmann::json::array();
+  for (const auto& p : est.pruned)
+    summary["pruned_materials"].push_back({{"model", p.label}, {"texels", p.texels}, {"heldout_drop", p.drop}, {"z", p.z}});
   for (const auto& q : est.cluster_quality)
     summary["cluster_quality"].push_back({{"cluster", q.cluster}, {"texels", q.texels}, {"heldout_rmse", q.heldout_rmse},
                                           {"signal_rms", q.signal_rms}, {"poorly_explained", q.poorly_explained}});

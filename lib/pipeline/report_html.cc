@@ -107,6 +107,14 @@ void WriteReportHtml(const json& s, const std::string& dir) {
     page.Paragraph("Progressive clustering:");
     page.Table({"clusters", "train RMSE", "held-out RMSE", "split kept"}, rows);
   }
+  if (s.contains("pruned_materials") && !s["pruned_materials"].empty()) {
+    rows.clear();
+    for (const auto& p : s["pruned_materials"])
+      rows.push_back({Text(p["model"]), Text(p["texels"]), Num(100 * p.value("heldout_drop", 0.0), "%.1f"),
+                      Num(p.value("z", 0.0), "%.1f")});
+    page.Paragraph("Materials removed after the split search (the others, mixed by the weights, explain them):");
+    page.Table({"model", "texels", "held-out error drop it brought (%)", "z"}, rows);
+  }
   page.Heading("Samples");
   rows.clear();
   if (s.contains("samples"))
