@@ -123,10 +123,9 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   }
 
   // 4. Mixing weights: scalar or per channel, and how far materials mix, by held-out error (weights.cc).
-  WeightModel weight_model = ChooseWeightModel(cl, &est, log);
-  // 4a. Materials the others, mixed by these weights, explain (prune.h);
-  // the weight model is chosen again for the materials that remain.
-  if (prune && PruneMaterials(cl, weight_model, &est, log) > 0) weight_model = ChooseWeightModel(cl, &est, log);
+  const WeightModel weight_model = ChooseWeightModel(cl, &est, log);
+  // 4a. Materials the others, mixed by these weights, explain (prune.h).
+  if (prune) PruneMaterials(cl, weight_model, &est, log);
   // 4b. The basis refitted given the weights (basis_refit.h).
   // Only where every cluster's model explains its samples: the refit
   // subtracts the other materials' predicted shares, which model error

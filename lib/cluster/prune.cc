@@ -100,6 +100,12 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
       if (c.cluster > k) --c.cluster;
     ++removed;
   }
+  // The weight model stays (the choice among radii and priors is about the
+  // capture's blends, not about the removed materials); its error now.
+  if (removed > 0) {
+    est->heldout_rmse = cl.HeldoutRmse(weight_model);
+    (weight_model.per_channel ? est->heldout_rmse_channel : est->heldout_rmse_scalar) = est->heldout_rmse;
+  }
   return removed;
 }
 

@@ -26,7 +26,8 @@
 
 namespace svbrdf {
 
-// Returns how many materials were removed (est->model_choices renumbered).
+// Returns how many materials were removed (est->model_choices renumbered,
+// est->heldout_rmse measured again with `m`, which stays the weight model).
 int PruneMaterials(Clustering& cl, const WeightModel& m, SvbrdfEstimate* est, const StageLog& log);
 
 }  // namespace svbrdf
