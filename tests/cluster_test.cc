@@ -553,16 +553,21 @@ TEST(Weights, UnitSumIsChosenByHeldOutSamplesAndMatchesTheTruth) {
 // colour drifts towards the other paint; refitted given the weights
 // (basis_refit.h), with the other's share subtracted, it returns to the
 // truth, and the held-out check keeps the refit.
-TEST(BasisRefit, BlendZonesNoLongerBiasTheMaterials) {
-  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.1, 0.1), Lambert(0.1, 0.42, 0.14)};
-  const int w = 40, h = 12;
+// Two paints on a w x h grid: pure, a 16-texel ramp from x = 12, pure.
+std::vector<std::vector<double>> RampMix(int w, int h) {
   std::vector<std::vector<double>> mix;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const double b = std::clamp((x - 12.0) / 16.0, 0.0, 1.0);  // pure, a 16-texel ramp, pure
+      const double b = std::clamp((x - 12.0) / 16.0, 0.0, 1.0);
       mix.push_back({1.0 - b, b});
     }
-  const SampleSet s = MakeMixedSamples(truth, mix, 29);
+  return mix;
+}
+
+TEST(BasisRefit, BlendZonesNoLongerBiasTheMaterials) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.1, 0.1), Lambert(0.1, 0.42, 0.14)};
+  const int w = 40, h = 12;
+  const SampleSet s = MakeMixedSamples(truth, RampMix(w, h), 29);
   auto colour_error = [&](bool refit) {
     ReconstructOptions o = Quiet();
     o.refit_basis_on_weights = refit;
@@ -1196,13 +1201,7 @@ TEST(Prune, ABlendZoneIsNotAMaterial) {
   // there, so the third material does not earn its place.
   const std::vector<BasisMaterial> paints = {Lambert(0.6, 0.1, 0.1), Lambert(0.1, 0.42, 0.14)};
   const int w = 40, h = 12;
-  std::vector<std::vector<double>> mix;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const double b = std::clamp((x - 12.0) / 16.0, 0.0, 1.0);
-      mix.push_back({1.0 - b, b});
-    }
-  const SampleSet blend = MakeMixedSamples(paints, mix, 41);
+  const SampleSet blend = MakeMixedSamples(paints, RampMix(w, h), 41);
   EXPECT_EQ(PrunedMaterials(blend, w, h, {paints[0], Lambert(0.35, 0.26, 0.12), paints[1]}, 16, 24), 1);
   // Control: three paints side by side, each one a material.
   const std::vector<BasisMaterial> three = {Lambert(0.6, 0.1, 0.1), Lambert(0.35, 0.26, 0.12), Lambert(0.1, 0.42, 0.14)};
