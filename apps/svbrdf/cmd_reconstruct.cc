@@ -117,7 +117,7 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
               "texels falls)");
   c->add_flag("--prune,!--no-prune", job->estimate.prune_materials,
               "after the weight model is chosen: remove a basis material that the others, mixed by the weights, explain\n"
-              "about as well (the split search's bar run backwards; on by default, --no-prune: off)");
+              "about as well (less than --prune-min-drop lower held-out error with it; on by default, --no-prune: off)");
   c->add_option("--prune-min-drop", job->estimate.prune_min_drop,
                 "pruning: relative drop of the held-out error a material must bring to stay (default 0.1)");
   c->add_flag("--merge,!--no-merge", job->merge.enabled,

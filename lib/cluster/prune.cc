@@ -12,33 +12,15 @@ namespace {
 
 struct Removal {
   int k = -1;
+  int texels = 0;          // of material k before its removal
   double drop = 0, z = 0;  // how much lower the error is with material k (TrimmedDrop, paired z)
-  std::vector<BasisMaterial> basis;
-  std::vector<int> assign;
+  std::vector<int> assign;  // the labels without material k
 };
-
-// The clustering without basis material k: its texels join the remaining
-// material that explains them best. The remaining materials stay as fitted:
-// refitted on the removed cluster's texels, a blend zone would pull their
-// colours towards the blend, which the weights' prior on their sum then
-// cannot undo (the basis refit on the weights, step 4b, follows).
-Removal WithoutMaterial(const Clustering& cl, int k) {
-  Clustering trial = cl;
-  trial.RemoveBasis(k);
-  trial.Assign();
-  return {k, 0, 0, trial.basis(), trial.assign()};
-}
 
 // Share of cluster k's samples (all clusters when k < 0) that are held out.
 double HeldOutShare(const Clustering& cl, int k) {
   const double held = double(cl.Ids(k, true).size()), train = double(cl.Ids(k, false).size());
   return held + train > 0 ? held / (held + train) : 0.0;
-}
-
-void Restore(const Removal& r, Clustering& cl) {
-  while (cl.K() > int(r.basis.size())) cl.RemoveBasis(cl.K() - 1);
-  for (size_t j = 0; j < r.basis.size(); ++j) cl.SetBasis(int(j), r.basis[j]);
-  cl.assign() = r.assign;
 }
 
 }  // namespace
@@ -58,7 +40,6 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
     const double capture_share = HeldOutShare(cl, -1);
     std::vector<double> with_sse;
     cl.HeldoutRmse(m, &with_sse);
-    const Removal current{-1, 0, 0, cl.basis(), cl.assign()};
     Removal weakest;
     std::string lines;
     for (int k = 0; k < cl.K(); ++k) {
@@ -71,15 +52,20 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
                      " %), kept untested");
         continue;
       }
-      Removal r = WithoutMaterial(cl, k);
-      Restore(r, cl);
+      // The clustering without material k: its texels join the remaining
+      // material that explains them best. The remaining materials stay as
+      // fitted: refitted on the removed cluster's texels, a blend zone would
+      // pull their colours towards the blend, which the weights' prior on
+      // their sum then cannot undo (the basis refit on the weights, step 4b,
+      // follows).
+      Clustering trial = cl;
+      trial.RemoveBasis(k);
+      trial.Assign();
       std::vector<double> without_sse;
-      cl.HeldoutRmse(m, &without_sse);
-      Restore(current, cl);
-      r.drop = TrimmedDrop(without_sse, with_sse);
-      r.z = std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse));
-      lines += Msg("; m", k, " (", cl.basis()[k].spec.Label(), ", ",
-                   std::count(current.assign.begin(), current.assign.end(), k), " texels) ", 100 * r.drop,
+      trial.HeldoutRmse(m, &without_sse);
+      Removal r{k, int(std::count(cl.assign().begin(), cl.assign().end(), k)), TrimmedDrop(without_sse, with_sse),
+                std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse)), trial.assign()};
+      lines += Msg("; m", k, " (", cl.basis()[k].spec.Label(), ", ", r.texels, " texels) ", 100 * r.drop,
                    " % lower with it, z = ", r.z);
       const bool earns = r.drop >= o.prune_min_drop && r.z >= o.min_z;
       if (!earns && (weakest.k < 0 || r.drop < weakest.drop)) weakest = std::move(r);
@@ -90,9 +76,9 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
     const int k = weakest.k;
     log(Msg("removed m", k, " (", cl.basis()[k].spec.Label(), "): its texels are explained by the other materials ",
             "(", 100 * weakest.drop, " % lower with it, z = ", weakest.z, ")"));
-    est->pruned.push_back({cl.basis()[k].spec.Label(),
-                           int(std::count(current.assign.begin(), current.assign.end(), k)), weakest.drop, weakest.z});
-    Restore(weakest, cl);
+    est->pruned.push_back({cl.basis()[k].spec.Label(), weakest.texels, weakest.drop, weakest.z});
+    cl.RemoveBasis(k);
+    cl.assign() = weakest.assign;
     auto& choices = est->model_choices;
     choices.erase(std::remove_if(choices.begin(), choices.end(), [k](const ModelChoice& c) { return c.cluster == k; }),
                   choices.end());

@@ -138,8 +138,9 @@ struct ReconstructOptions {
   // subtracted; kept when the held-out error falls.
   bool refit_basis_on_weights = true;
   // Step 4a (prune.h): after the weight model is chosen, a basis material
-  // that the others mixed by the weights explain about as well (by the split
-  // search's own bar) is removed, weakest first (`--prune` / `--no-prune`).
+  // that the others mixed by the weights explain about as well (it lowers
+  // the held-out error by less than `prune_min_drop`) is removed, weakest
+  // first (`--prune` / `--no-prune`).
   bool prune_materials = true;
   // The relative drop of the held-out error (TrimmedDrop, display units) a
   // material must bring to stay in pruning; higher than the split search's
