@@ -219,6 +219,40 @@ TEST(Photometric, LambertianNormalsAndDictionaryFitRecoverClosedFormPixels) {
               0.3);
 }
 
+// A wall beside the pixels hides the lights on one side, as in a concavity:
+// more than the darkest quarter of the photos are black, so the
+// interquartile fit keeps some and leans away from the wall. Told which
+// photos are in cast shadow (what the pipeline's shadow rounds take from
+// the start's height field), the fit is exact again.
+TEST(Photometric, LambertianNormalsLeaveOutCastShadows) {
+  const BasisMaterial lobe = DictionaryCandidates().back();
+  std::vector<Vec3> normals;
+  for (int p = 0; p < 20; ++p) normals.push_back(Vec3(0.2 * std::sin(p), 0.2 * std::cos(1.3 * p), -1).normalized());
+  PsObservations obs = SyntheticObservations(normals, std::vector<Rgb>(20, Rgb(0.6, 0.5, 0.4)), 0.0, lobe);
+  std::vector<uint8_t> shadowed(size_t(obs.P()) * obs.lights, 0);
+  int hidden = 0;
+  for (int l = 0; l < obs.lights; ++l) {
+    if (obs.to_light[l].x() < 0.15) continue;
+    ++hidden;
+    for (long p = 0; p < obs.P(); ++p) {
+      shadowed[size_t(p) * obs.lights + l] = 1;
+      for (int c = 0; c < 3; ++c) obs.value[obs.At(p, l) + c] = 0.0f;
+    }
+  }
+  ASSERT_GT(hidden, obs.lights * 3 / 10);
+  ASSERT_LT(hidden, obs.lights / 2);
+  auto mean_error = [&](const Image& n) {
+    double sum = 0;
+    for (int p = 0; p < 20; ++p)
+      sum += std::acos(std::min(1.0, Vec3(n.at(p, 0, 0), n.at(p, 0, 1), n.at(p, 0, 2)).normalized().dot(normals[p])));
+    return sum / 20 * 180 / kPi;
+  };
+  const double plain = mean_error(LambertianNormals(obs, {}, 1));
+  const double aware = mean_error(LambertianNormals(obs, shadowed, 1));
+  EXPECT_GT(plain, 2.0);
+  EXPECT_LT(aware, 0.05);
+}
+
 // A metal (a specular lobe, no diffuse): the Lambertian start is far off and
 // says so through its misfit; the search under the basis, from the start
 // and from the specular cue, finds the normals; pixels outside `search`

@@ -126,6 +126,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--ps-normal-rounds", job->photometric_normal_rounds,
                 "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search\n"
                 "(where the Lambertian start misfits, --ps-search-misfit; 0 = the Lambertian start alone)");
+  c->add_option("--ps-shadow-rounds", job->photometric_shadow_rounds,
+                "photometric captures with unknown normals: rounds of Lambertian normals fitted again without the photos\n"
+                "their height field casts shadows in (0 = the interquartile start alone)");
   c->add_option("--ps-max-basis", job->photometric.max_basis, "photometric captures: most basis BRDFs (Lambert included)");
   c->add_option("--ps-min-gain", job->photometric.min_gain,
                 "photometric captures: relative cross-validated error drop an added basis BRDF must bring");

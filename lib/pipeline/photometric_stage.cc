@@ -60,6 +60,16 @@ Image FillNormals(const PsObservations& obs, Image normals) {
   return normals;
 }
 
+// Integrates `normals` into the height field the pixel mesh is built on
+// (depth out) and returns the photos each pixel lies in the cast shadow of
+// that surface in.
+std::vector<uint8_t> HeightFieldShadows(const PsObservations& obs, const Image& normals, double base_depth,
+                                        int threads, std::vector<double>* depth) {
+  *depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
+  const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, *depth, base_depth, normals);
+  return CastShadows(obs, height_field, threads);
+}
+
 Image NormalsPicture(const Image& n_cam, const Image& region) {
   Image rgb(n_cam.width, n_cam.height, 3);
   for (int y = 0; y < rgb.height; ++y)
@@ -84,6 +94,8 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
   fo.Check();
   if (job.photometric_normal_rounds < 0 || job.photometric_normal_rounds > 10)
     throw Error(Msg("reconstruct: photometric normal rounds must be in [0, 10], got ", job.photometric_normal_rounds));
+  if (job.photometric_shadow_rounds < 0 || job.photometric_shadow_rounds > 10)
+    throw Error(Msg("reconstruct: photometric shadow rounds must be in [0, 10], got ", job.photometric_shadow_rounds));
   std::fprintf(stderr, "photometric capture: one fixed orthographic view, %zu directional lights: per-pixel fit\n",
                scene.images.size());
   timer->Start("read photos");
@@ -117,24 +129,42 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
   } else {
     timer->Start("lambertian normals");
     Image determined, misfit;
-    normals = LambertianNormals(obs, {}, fo.threads, &determined, &misfit);
     // Pixels the photos do not determine (dark or mirror-like in nearly
     // every photo) take the membrane of their determined surroundings
     // instead of facing the camera. (A pixel without valid photos is never
     // determined.)
-    FillNormalsSmoothly(determined, obs.region, &normals);
-    normals = FillNormals(obs, normals);
-    const long undetermined = std::count_if(obs.pixel.begin(), obs.pixel.end(),
-                                            [&](int px) { return determined.pixels[px] <= 0.5f; });
-    normal_info["undetermined_pixels"] = undetermined;
-    std::fprintf(stderr, "  Lambertian start: %ld of %d pixels not determined by the photos (%.1f %%): filled from "
-                 "their surroundings\n", undetermined, obs.P(), 100.0 * undetermined / std::max(1, obs.P()));
+    auto lambertian = [&](const std::vector<uint8_t>& cast_shadows) {
+      normals = LambertianNormals(obs, cast_shadows, fo.threads, &determined, &misfit);
+      FillNormalsSmoothly(determined, obs.region, &normals);
+      normals = FillNormals(obs, normals);
+    };
+    lambertian({});
     if (truth.width) {
       normal_info["lambertian_start"] = AngularError(normals, truth, obs.region);
       std::fprintf(stderr, "  Lambertian start: normals %.2f deg from the truth\n",
                    double(normal_info["lambertian_start"]["mean_deg"]));
     }
     base_depth = MeanDepth(obs);
+    // The interquartile photos leave out a pixel's darkest quarter, but in a
+    // concavity more than a quarter of the lights can be hidden: the start's
+    // height field says which, and the Lambertian fit is solved again
+    // without them.
+    for (int round = 0; round < job.photometric_shadow_rounds; ++round) {
+      timer->Start("height field + shadows");
+      shadowed = HeightFieldShadows(obs, normals, base_depth, fo.threads, &depth);
+      timer->Start("lambertian normals");
+      lambertian(shadowed);
+      if (truth.width) {
+        normal_info["shadow_rounds"].push_back(AngularError(normals, truth, obs.region));
+        std::fprintf(stderr, "  Lambertian without the height field's cast shadows (round %d): normals %.2f deg from "
+                     "the truth\n", round + 1, double(normal_info["shadow_rounds"].back()["mean_deg"]));
+      }
+    }
+    const long undetermined = std::count_if(obs.pixel.begin(), obs.pixel.end(),
+                                            [&](int px) { return determined.pixels[px] <= 0.5f; });
+    normal_info["undetermined_pixels"] = undetermined;
+    std::fprintf(stderr, "  Lambertian start: %ld of %d pixels not determined by the photos (%.1f %%): filled from "
+                 "their surroundings\n", undetermined, obs.P(), 100.0 * undetermined / std::max(1, obs.P()));
     // Where the Lambertian start misfits its inlier photos (metals,
     // lobe-dominated paint) the normals are searched under the fitted basis;
     // the window median keeps isolated pixels (edges, noise) out.
@@ -151,9 +181,7 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
                  searched > 0 && job.photometric_normal_rounds > 0 ? ": their normals are searched under the basis" : "");
     for (int round = 0; round < job.photometric_normal_rounds && searched > 0; ++round) {
       timer->Start("height field + shadows");
-      depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
-      const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, depth, base_depth, normals);
-      shadowed = CastShadows(obs, height_field, fo.threads);
+      shadowed = HeightFieldShadows(obs, normals, base_depth, fo.threads, &depth);
       timer->Start("basis selection");
       sel = SelectBasis(obs, normals, shadowed, fo);
       timer->Start("normal refinement");
@@ -165,9 +193,7 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
       }
     }
     timer->Start("height field + shadows");
-    depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
-    const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, depth, base_depth, normals);
-    shadowed = CastShadows(obs, height_field, fo.threads);
+    shadowed = HeightFieldShadows(obs, normals, base_depth, fo.threads, &depth);
     normal_info["source"] = "estimated from the photos";
   }
   if (truth.width) normal_info["error"] = AngularError(normals, truth, obs.region);

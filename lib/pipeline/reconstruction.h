@@ -66,6 +66,10 @@ struct ReconstructionJob {
   // (indirect/interreflection.h); seed and threads from `estimate`.
   InterreflectionOptions interreflection;
   int photometric_normal_rounds = 1;
+  // Photometric captures with unknown normals: rounds of Lambertian normals
+  // -> height field -> cast shadows -> Lambertian normals without the
+  // shadowed photos, before the search (0: the interquartile start alone).
+  int photometric_shadow_rounds = 1;
   // Units of model selection's errors: "display" (each photo's pixel values,
   // clamped and sRGB-encoded, as held-out photos are scored; stats.h
   // DisplayScale) or "linear" (reflected radiance per unit light).
