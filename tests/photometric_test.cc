@@ -74,6 +74,61 @@ TEST(Photometric, IntegrateNormalsRecoversASphere) {
   EXPECT_GT(std::abs(truth[20 * w + 20] - mean_t), 0.001);  // the test measures something: the cap is not flat
 }
 
+// A ball in front of a tilted wall: the wall's depth jumps at the ball's
+// rim, which no normal shows. Poisson integration bends the wall towards the
+// ball around it (the ramp that would cast false shadows); the bilateral
+// refinement keeps the wall a plane to within half a pixel.
+TEST(Photometric, IntegrateNormalsKeepsADepthJump) {
+  const int w = 60, h = 60;
+  const double px = 0.001, radius = 0.012, slope = 0.4;
+  Image normals(w, h, 3), region(w, h, 1);
+  std::vector<char> wall(w * h, 0);
+  const Vec3 wall_normal = Vec3(slope, 0, -1).normalized();  // z = z0 + slope x: dz/dx = -nx/nz
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double X = (x + 0.5 - 30) * px, Y = (y + 0.5 - 30) * px;
+      const double r2 = X * X + Y * Y;
+      Vec3 n = wall_normal;
+      if (r2 < 0.95 * radius * radius) n = Vec3(X, Y, -std::sqrt(radius * radius - r2)).normalized();
+      else wall[y * w + x] = r2 > std::pow(radius + 3 * px, 2);
+      for (int c = 0; c < 3; ++c) normals.at(x, y, c) = float(n[c]);
+      region.at(x, y, 0) = 1.0f;
+    }
+  // How far the wall is from a plane of the true slope: spread of
+  // depth - slope x over the wall pixels away from the rim.
+  auto wall_bend = [&](const std::vector<double>& depth) {
+    double lo = 1e9, hi = -1e9;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (wall[y * w + x]) {
+          const double off = depth[y * w + x] - slope * x * px;
+          lo = std::min(lo, off), hi = std::max(hi, off);
+        }
+    return hi - lo;
+  };
+  NormalIntegrationOptions poisson;
+  poisson.bilateral_iterations = 0;
+  const double bend_poisson = wall_bend(IntegrateNormals(normals, region, px, poisson));
+  const double bend_bilateral = wall_bend(IntegrateNormals(normals, region, px));
+  std::printf("wall bend: Poisson %.3f mm, bilateral %.3f mm\n", bend_poisson * 1e3, bend_bilateral * 1e3);
+  EXPECT_GT(bend_poisson, 2 * px);      // the test measures something: Poisson does bend the wall
+  EXPECT_LT(bend_bilateral, 0.1 * bend_poisson);
+  EXPECT_LT(bend_bilateral, 0.5 * px);  // within half a pixel over a 60-pixel wall
+}
+
+TEST(Photometric, NormalIntegrationOptionsAreChecked) {
+  NormalIntegrationOptions o;
+  o.bilateral_k = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = {};
+  o.bilateral_iterations = -1;
+  EXPECT_THROW(o.Check(), Error);
+  o = {};
+  o.max_slope = -1;
+  EXPECT_THROW(o.Check(), Error);
+  EXPECT_NO_THROW(NormalIntegrationOptions{}.Check());
+}
+
 TEST(Photometric, PixelMeshHasOneQuadPerPixelMappedOntoItsTexel) {
   const Camera cam = Ortho(8, 6, 1000);
   Image region(8, 6, 1), normals(8, 6, 3);

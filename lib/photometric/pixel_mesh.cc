@@ -9,8 +9,29 @@
 
 namespace svbrdf {
 
+void NormalIntegrationOptions::Check() const {
+  if (!(max_slope > 0)) throw Error(Msg("normal integration: max_slope must be > 0, got ", max_slope));
+  if (bilateral_iterations < 0)
+    throw Error(Msg("normal integration: bilateral_iterations must be >= 0, got ", bilateral_iterations));
+  if (!(bilateral_k > 0)) throw Error(Msg("normal integration: bilateral_k must be > 0, got ", bilateral_k));
+  if (!(tolerance >= 0)) throw Error(Msg("normal integration: tolerance must be >= 0, got ", tolerance));
+}
+
+namespace {
+
+// One one-sided difference equation of the bilateral refinement:
+// weight * (z[plus] - z[minus] - slope) = 0, all in pixel units.
+struct DifferenceRow {
+  int plus, minus;  // unknowns
+  int pixel;        // the pixel whose normal gives the slope
+  double slope, confidence;
+};
+
+}  // namespace
+
 std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& region, double metres_per_pixel,
-                                     double max_slope) {
+                                     const NormalIntegrationOptions& options) {
+  options.Check();
   const int w = region.width, h = region.height;
   std::vector<int> index(size_t(w) * h, -1);
   int n = 0;
@@ -19,11 +40,18 @@ std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& regi
       if (region.at(x, y, 0) > 0.5f) index[size_t(y) * w + x] = n++;
   std::vector<double> depth(size_t(w) * h, 0.0);
   if (n == 0) return depth;
-  // dz/dx = -nx/nz, dz/dy = -ny/nz on the surface z(x, y) (camera frame).
+  // dz/dx = -nx/nz, dz/dy = -ny/nz on the surface z(x, y) (camera frame), in
+  // pixels per pixel.
   auto slope = [&](int x, int y, int axis) {
     const double nz = std::min(-1e-3, double(normals_cam.at(x, y, 2)));  // facing the camera: nz < 0
-    return std::clamp(-double(normals_cam.at(x, y, axis)) / nz, -max_slope, max_slope);
+    return std::clamp(-double(normals_cam.at(x, y, axis)) / nz, -options.max_slope, options.max_slope);
   };
+  auto neighbour = [&](int x, int y, int axis, int step) {
+    const int x2 = x + (axis == 0) * step, y2 = y + (axis == 1) * step;
+    return x2 < 0 || y2 < 0 || x2 >= w || y2 >= h ? -1 : index[size_t(y2) * w + x2];
+  };
+  // A weak pull to 0 fixes each part's free offset; removed again below.
+  const double kAnchor = 1e-6;
   std::vector<Eigen::Triplet<double>> t;
   std::vector<double> rhs;
   int row = 0;
@@ -32,18 +60,15 @@ std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& regi
       const int i = index[size_t(y) * w + x];
       if (i < 0) continue;
       for (int axis = 0; axis < 2; ++axis) {
-        const int x2 = x + (axis == 0), y2 = y + (axis == 1);
-        if (x2 >= w || y2 >= h) continue;
-        const int j = index[size_t(y2) * w + x2];
+        const int j = neighbour(x, y, axis, 1);
         if (j < 0) continue;
         t.emplace_back(row, j, 1.0);
         t.emplace_back(row, i, -1.0);
-        rhs.push_back(0.5 * (slope(x, y, axis) + slope(x2, y2, axis)) * metres_per_pixel);
+        const int x2 = x + (axis == 0), y2 = y + (axis == 1);
+        rhs.push_back(0.5 * (slope(x, y, axis) + slope(x2, y2, axis)));
         ++row;
       }
     }
-  // A weak pull to 0 fixes each part's free offset; removed again below.
-  const double kAnchor = 1e-6;
   for (int i = 0; i < n; ++i) {
     t.emplace_back(row++, i, kAnchor);
     rhs.push_back(0.0);
@@ -51,10 +76,86 @@ std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& regi
   Eigen::SparseMatrix<double> A(row, n);
   A.setFromTriplets(t.begin(), t.end());
   const Eigen::Map<const Eigen::VectorXd> b(rhs.data(), row);
-  const Eigen::SparseMatrix<double> AtA = A.transpose() * A;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(AtA);
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A.transpose() * A);
   if (solver.info() != Eigen::Success) throw Error("normal integration: factorisation failed");
-  const Eigen::VectorXd z = solver.solve(A.transpose() * b);
+  Eigen::VectorXd z = solver.solve(A.transpose() * b);
+
+  if (options.bilateral_iterations > 0) {
+    // Both one-sided differences of every pixel along each axis; a pixel's
+    // equations are scaled by |n.z| (the normal's own form n.z dz + n.x = 0),
+    // so grazing normals, whose slope is least certain, count least.
+    std::vector<DifferenceRow> rows;
+    std::vector<int> partner;  // the row of the other side, or -1
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const int i = index[size_t(y) * w + x];
+        if (i < 0) continue;
+        const double confidence = std::max(0.05, -double(normals_cam.at(x, y, 2)));
+        for (int axis = 0; axis < 2; ++axis) {
+          const int forward = neighbour(x, y, axis, 1), backward = neighbour(x, y, axis, -1);
+          const int first = int(rows.size());
+          if (forward >= 0) rows.push_back({forward, i, i, slope(x, y, axis), confidence});
+          if (backward >= 0) rows.push_back({i, backward, i, slope(x, y, axis), confidence});
+          if (forward >= 0 && backward >= 0) {
+            partner.push_back(first + 1);
+            partner.push_back(first);
+          } else if (forward >= 0 || backward >= 0) {
+            partner.push_back(-1);
+          }
+        }
+      }
+    const int m = int(rows.size());
+    std::vector<double> weight(m, 1.0);
+    auto reweight = [&] {
+      for (int r = 0; r < m; ++r) {
+        if (partner[r] < 0) continue;
+        // Trust this side more the smaller its jump is than the other's;
+        // jumps scaled by |n.z| as the equations are (Cao et al.'s code
+        // weighs A z, not z's differences), so that a steep but smooth
+        // stretch, whose differences are large on both sides, keeps both.
+        const double own = rows[r].confidence * (z[rows[r].plus] - z[rows[r].minus]);
+        const double other = rows[r].confidence * (z[rows[partner[r]].plus] - z[rows[partner[r]].minus]);
+        weight[r] = 1.0 / (1.0 + std::exp(-options.bilateral_k * (other * other - own * own)));
+      }
+    };
+    auto energy = [&] {
+      double e = 0;
+      for (int r = 0; r < m; ++r) {
+        const double res = rows[r].confidence * (z[rows[r].plus] - z[rows[r].minus] - rows[r].slope);
+        e += weight[r] * res * res;
+      }
+      return e;
+    };
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> bilateral;
+    double last = -1;
+    for (int it = 0; it < options.bilateral_iterations; ++it) {
+      reweight();
+      std::vector<Eigen::Triplet<double>> nt;
+      nt.reserve(size_t(m) * 4 + n);
+      Eigen::VectorXd atb = Eigen::VectorXd::Zero(n);
+      for (int r = 0; r < m; ++r) {
+        const DifferenceRow& d = rows[r];
+        const double c = weight[r] * d.confidence * d.confidence;
+        nt.emplace_back(d.plus, d.plus, c);
+        nt.emplace_back(d.minus, d.minus, c);
+        nt.emplace_back(d.plus, d.minus, -c);
+        nt.emplace_back(d.minus, d.plus, -c);
+        atb[d.plus] += c * d.slope;
+        atb[d.minus] -= c * d.slope;
+      }
+      for (int i = 0; i < n; ++i) nt.emplace_back(i, i, kAnchor * kAnchor);
+      Eigen::SparseMatrix<double> normal(n, n);
+      normal.setFromTriplets(nt.begin(), nt.end());
+      if (it == 0) bilateral.analyzePattern(normal);
+      bilateral.factorize(normal);
+      if (bilateral.info() != Eigen::Success) throw Error("normal integration: bilateral factorisation failed");
+      z = bilateral.solve(atb);
+      const double e = energy();
+      if (last >= 0 && std::abs(last - e) <= options.tolerance * std::max(last, 1e-12)) break;
+      last = e;
+    }
+  }
+  z *= metres_per_pixel;
   // Mean 0 per connected part (4-neighbours).
   std::vector<int> part(n, -1);
   std::vector<double> sum;

@@ -15,14 +15,38 @@
 
 namespace svbrdf {
 
+// How per-pixel normals are integrated into depth.
+//
+//   max_slope            |dz/dx| in pixels per pixel that a normal may claim
+//                        (grazing normals at silhouettes), > 0; default 5
+//   bilateral_iterations reweighting rounds of the discontinuity-preserving
+//                        refinement (0 = the Poisson solution); default 40
+//   bilateral_k          sharpness of the one-sided weights, > 0; default 2
+//   tolerance            the refinement stops when its energy changes by less
+//                        than this share between rounds; default 1e-3
+struct NormalIntegrationOptions {
+  double max_slope = 5.0;
+  int bilateral_iterations = 40;
+  double bilateral_k = 2.0;
+  double tolerance = 1e-3;
+  void Check() const;
+};
+
 // Depth (camera z, metres) per pixel of `region` from unit camera-frame
-// normals (COLMAP frame: facing the camera means n.z < 0) by least squares on
-// the forward differences between region pixels (Poisson integration), the
-// slope of each pair from the two pixels' normals. Slopes are clamped to
-// `max_slope` (normals at grazing silhouettes). Each connected part has mean
-// depth 0. Pixels outside the region get 0.
+// normals (COLMAP frame: facing the camera means n.z < 0).
+//
+// The start is least squares on the forward differences between region pixels
+// (Poisson integration), the slope of each pair from the two pixels' normals.
+// Poisson integration spreads a depth jump (an ear in front of a body) into a
+// ramp that casts shadows the object does not have, so the start is refined by
+// bilateral normal integration (Cao et al., ECCV 2022): each pixel's normal
+// constrains the forward and the backward difference of its row and column,
+// weighted by sigmoid(k ((backward diff)^2 - (forward diff)^2)) and its
+// complement, iteratively reweighted, so that a pixel follows the side it is
+// continuous with and a jump stays a jump. Each connected part has mean depth
+// 0. Pixels outside the region get 0.
 std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& region, double metres_per_pixel,
-                                     double max_slope = 5.0);
+                                     const NormalIntegrationOptions& options = {});
 
 // The height-field mesh: one quad per region pixel at depth `base_depth` +
 // depth[pixel], in world coordinates of `cam_from_world`, with per-vertex

@@ -63,9 +63,17 @@ Image FillNormals(const PsObservations& obs, Image normals) {
 // Integrates `normals` into the height field the pixel mesh is built on
 // (depth out) and returns the photos each pixel lies in the cast shadow of
 // that surface in.
+//
+// Poisson integration, not the bilateral one: normals estimated from the
+// photos are wrong in places (metals under the Lambertian start, cast
+// shadows, interreflection), and a discontinuity-preserving integration turns
+// such errors into cliffs whose false shadows leave good photos out of the
+// fits; a scan's normals (import-ps --normals) are integrated bilaterally.
 std::vector<uint8_t> HeightFieldShadows(const PsObservations& obs, const Image& normals, double base_depth,
                                         int threads, std::vector<double>* depth) {
-  *depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth));
+  NormalIntegrationOptions poisson;
+  poisson.bilateral_iterations = 0;
+  *depth = IntegrateNormals(normals, obs.region, obs.cam.MetresPerPixel(base_depth), poisson);
   const Mesh height_field = PixelGridMesh(obs.cam, obs.cam_from_world, obs.region, *depth, base_depth, normals);
   return CastShadows(obs, height_field, threads);
 }
