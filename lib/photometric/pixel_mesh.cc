@@ -20,11 +20,11 @@ void NormalIntegrationOptions::Check() const {
 namespace {
 
 // One one-sided difference equation of the bilateral refinement:
-// weight * (z[plus] - z[minus] - slope) = 0, all in pixel units.
+// confidence * (z[plus] - z[minus] - slope) = 0, all in pixel units.
 struct DifferenceRow {
   int plus, minus;  // unknowns
-  int pixel;        // the pixel whose normal gives the slope
   double slope, confidence;
+  int partner;  // the row of the pixel's other side along the same axis, or -1
 };
 
 }  // namespace
@@ -85,7 +85,6 @@ std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& regi
     // equations are scaled by |n.z| (the normal's own form n.z dz + n.x = 0),
     // so grazing normals, whose slope is least certain, count least.
     std::vector<DifferenceRow> rows;
-    std::vector<int> partner;  // the row of the other side, or -1
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         const int i = index[size_t(y) * w + x];
@@ -94,27 +93,25 @@ std::vector<double> IntegrateNormals(const Image& normals_cam, const Image& regi
         for (int axis = 0; axis < 2; ++axis) {
           const int forward = neighbour(x, y, axis, 1), backward = neighbour(x, y, axis, -1);
           const int first = int(rows.size());
-          if (forward >= 0) rows.push_back({forward, i, i, slope(x, y, axis), confidence});
-          if (backward >= 0) rows.push_back({i, backward, i, slope(x, y, axis), confidence});
-          if (forward >= 0 && backward >= 0) {
-            partner.push_back(first + 1);
-            partner.push_back(first);
-          } else if (forward >= 0 || backward >= 0) {
-            partner.push_back(-1);
-          }
+          const double s = slope(x, y, axis);
+          if (forward >= 0) rows.push_back({forward, i, s, confidence, -1});
+          if (backward >= 0) rows.push_back({i, backward, s, confidence, -1});
+          if (forward >= 0 && backward >= 0) rows[first].partner = first + 1, rows[first + 1].partner = first;
         }
       }
     const int m = int(rows.size());
     std::vector<double> weight(m, 1.0);
     auto reweight = [&] {
       for (int r = 0; r < m; ++r) {
-        if (partner[r] < 0) continue;
+        const DifferenceRow& d = rows[r];
+        if (d.partner < 0) continue;
         // Trust this side more the smaller its jump is than the other's;
         // jumps scaled by |n.z| as the equations are (Cao et al.'s code
         // weighs A z, not z's differences), so that a steep but smooth
         // stretch, whose differences are large on both sides, keeps both.
-        const double own = rows[r].confidence * (z[rows[r].plus] - z[rows[r].minus]);
-        const double other = rows[r].confidence * (z[rows[partner[r]].plus] - z[rows[partner[r]].minus]);
+        const DifferenceRow& o = rows[d.partner];
+        const double own = d.confidence * (z[d.plus] - z[d.minus]);
+        const double other = d.confidence * (z[o.plus] - z[o.minus]);
         weight[r] = 1.0 / (1.0 + std::exp(-options.bilateral_k * (other * other - own * own)));
       }
     };
