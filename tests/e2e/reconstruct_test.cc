@@ -39,14 +39,29 @@ bool HasParam(const BasisMaterial& b, const std::string& name) {
 }
 
 // Normal-incidence reflectance per channel of a conductor (any Fresnel form).
+// Normal-incidence reflectance of a metal: a conductor's, or a
+// metallic-roughness material's lobe (Schlick with F0 = 0.04 (1 - metallic)
+// + metallic base, gltf_pbr.h).
 Rgb ConductorF0Of(const BasisMaterial& b) {
   Rgb f0;
   const char* ch[3] = {"_r", "_g", "_b"};
-  for (int c = 0; c < 3; ++c)
-    f0[c] = HasParam(b, "f0_r") ? GetParam(b, std::string("f0") + ch[c])
-                                : brdf::ConductorF0(GetParam(b, std::string("eta") + ch[c]),
-                                                    GetParam(b, std::string("kappa") + ch[c]));
+  for (int c = 0; c < 3; ++c) {
+    if (b.spec.family == Family::kGltf) {
+      const double m = GetParam(b, "metallic");
+      f0[c] = 0.04 * (1 - m) + m * GetParam(b, std::string("base_color") + ch[c]);
+    } else {
+      f0[c] = HasParam(b, "f0_r") ? GetParam(b, std::string("f0") + ch[c])
+                                  : brdf::ConductorF0(GetParam(b, std::string("eta") + ch[c]),
+                                                      GetParam(b, std::string("kappa") + ch[c]));
+    }
+  }
   return f0;
+}
+
+// A metal: a conductor, or a metallic-roughness material that is (nearly)
+// all metal, whose lobe is then a Schlick conductor's with no diffuse.
+bool IsMetal(const BasisMaterial& b) {
+  return b.spec.family == Family::kConductor || (b.spec.family == Family::kGltf && GetParam(b, "metallic") >= 0.95);
 }
 
 // mixed_tiny: held-out PSNR measured 36.98 dB (MixedMaterialsRightCountAndMetal;
@@ -58,7 +73,9 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
 // weights; 7 % low before main's model-selection changes at f83a319).
 // With the basis polished jointly with the tilts (lib/normals/basis_polish.h):
 // 44.69 dB (min 37.13), max rd error 0.017; main before it (821b142)
-// 42.76 dB, max rd error 0.085. The floor is 1.7 dB below.
+// 42.76 dB, max rd error 0.085. The floor is 1.7 dB below. Since the
+// metallic-roughness model is a candidate the copper takes it (metallic
+// 0.9999, F0 within 0.1 %): 48.33 dB (min 43.74); the floor stays.
 constexpr double kMixedTinyMinPsnr = 43.0;
 constexpr double kMixedTinyF0Tolerance = 0.05;
 // The coated plastic's ior (true 1.5): 1.426 before the material rounds
@@ -256,15 +273,15 @@ TEST(Reconstruct, TimeBudgetGivesACompleteMaterial) {
 }
 
 // Checks the basis material(s) matched to the true metal: recognised as a
-// conductor, normal-incidence reflectance within `tolerance` (relative).
+// metal (IsMetal), normal-incidence reflectance within `tolerance` (relative).
 // Returns how many reconstructed materials matched the metal.
 int CheckMetal(const Outcome& r, double tolerance) {
   int metals = 0;
   for (size_t k = 0; k < r.basis.size(); ++k) {
     if (r.truth[k].spec.family != Family::kConductor) continue;
     ++metals;
-    EXPECT_EQ(r.basis[k].spec.family, Family::kConductor) << r.basis[k].spec.Label();
-    if (r.basis[k].spec.family != Family::kConductor) continue;
+    EXPECT_TRUE(IsMetal(r.basis[k])) << r.basis[k].spec.Label();
+    if (!IsMetal(r.basis[k])) continue;
     const Rgb f0 = ConductorF0Of(r.basis[k]), f0_true = ConductorF0Of(r.truth[k]);
     std::printf("metal: %s, F0 fitted %.4f %.4f %.4f, true %.4f %.4f %.4f\n", r.basis[k].spec.Label().c_str(), f0[0],
                 f0[1], f0[2], f0_true[0], f0_true[1], f0_true[2]);
