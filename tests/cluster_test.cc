@@ -675,6 +675,15 @@ TEST(Cluster, ModelChoiceWithoutHeldOutSamples) {
   EXPECT_EQ(est.basis[est.label[50]].spec.Label(), "lambert");
 }
 
+// Parameters by name (the fitted values of a candidate).
+std::vector<double> ParamsOf(const ModelSpec& spec, const std::map<std::string, double>& values) {
+  std::vector<double> p = spec.InitialParams();
+  const auto info = spec.Params();
+  for (size_t i = 0; i < info.size(); ++i)
+    if (values.count(info[i].name)) p[i] = values.at(info[i].name);
+  return p;
+}
+
 // A partly metallic material (a metal lobe tinted by the base colour over a
 // little diffuse, as principled/glTF materials are) is neither a dielectric
 // (whose lobe is white and weak at normal incidence) nor a bare conductor (no
@@ -683,12 +692,9 @@ TEST(Cluster, ModelChoiceWithoutHeldOutSamples) {
 TEST(ModelChoice, APartlyMetallicMaterialGetsTheMetallicRoughnessModel) {
   BasisMaterial truth;
   truth.spec = ModelSpec::FromLabel("gltf");
-  const std::map<std::string, double> values = {{"base_color_r", 0.8}, {"base_color_g", 0.05},
-                                                {"base_color_b", 0.4},  {"metallic", 0.6},
-                                                {"roughness", 0.3}};
-  truth.params = truth.spec.InitialParams();
+  truth.params = ParamsOf(truth.spec, {{"base_color_r", 0.8}, {"base_color_g", 0.05}, {"base_color_b", 0.4},
+                                       {"metallic", 0.6}, {"roughness", 0.3}});
   const auto info = truth.spec.Params();
-  for (size_t i = 0; i < info.size(); ++i) truth.params[i] = values.at(info[i].name);
   const SampleSet s = MakeSamples({truth}, std::vector<int>(200, 0), 17);
   ReconstructOptions o;  // default candidates
   o.progress = getenv("SVBRDF_VERBOSE") != nullptr;
@@ -698,15 +704,6 @@ TEST(ModelChoice, APartlyMetallicMaterialGetsTheMetallicRoughnessModel) {
   ASSERT_EQ(est.basis[0].spec.Label(), "gltf");
   for (size_t i = 0; i < info.size(); ++i)
     EXPECT_NEAR(est.basis[0].params[i], truth.params[i], 0.03) << info[i].name;
-}
-
-// Parameters by name (the fitted values of a candidate).
-std::vector<double> ParamsOf(const ModelSpec& spec, const std::map<std::string, double>& values) {
-  std::vector<double> p = spec.InitialParams();
-  const auto info = spec.Params();
-  for (size_t i = 0; i < info.size(); ++i)
-    if (values.count(info[i].name)) p[i] = values.at(info[i].name);
-  return p;
 }
 
 // The upper bound of a model's parameter, by name.

@@ -38,10 +38,9 @@ bool HasParam(const BasisMaterial& b, const std::string& name) {
   return false;
 }
 
-// Normal-incidence reflectance per channel of a conductor (any Fresnel form).
-// Normal-incidence reflectance of a metal: a conductor's, or a
-// metallic-roughness material's lobe (Schlick with F0 = 0.04 (1 - metallic)
-// + metallic base, gltf_pbr.h).
+// Normal-incidence reflectance per channel of a metal: a conductor's (any
+// Fresnel form), or a metallic-roughness material's lobe (Schlick with
+// F0 = 0.04 (1 - metallic) + metallic base, gltf_pbr.h).
 Rgb ConductorF0Of(const BasisMaterial& b) {
   Rgb f0;
   const char* ch[3] = {"_r", "_g", "_b"};
