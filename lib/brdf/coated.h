@@ -7,30 +7,33 @@
 //   n     index of refraction of the coat (air outside)          [1.1, 2.5]
 //   distribution  Beckmann | GGX, Smith shadowing
 //
-//   f(L, E) = D(H) G1(L) G1(E) F(<H|E>) / (4 <N|L><N|E>)                      coat reflection
-//           + rd (1 - F(<N|L>)) (1 - F(<N|E>)) / (pi n^2 (1 - rd F_int(n)))    base, seen through the coat
+//   f(L, E) = D(H) G1(L) G1(E) F(<H|E>) / (4 <N|L><N|E>)                 coat reflection
+//           + rd t(<N|L>) t(<N|E>) / (pi n^2 (1 - rd F_int))             base, seen through the coat
 //
-// The second term follows light refracted into the coat (transmittance
-// 1 - F(<N|L>)), reflected diffusely by the base, and escaping with
-// transmittance 1 - F(<N|E>); radiance leaving the dense medium is divided by
-// n^2. Light reflected back at the coat's underside (fraction F_int(n), the
-// internal diffuse Fresnel reflectance, fresnel.h) returns to the base, and
-// the geometric series of these bounces gives 1 / (1 - rd F_int). With a
-// white base the diffuse albedo is then exactly 1 - F(<N|L>): everything
-// that enters the coat comes out.
+// The second term follows light through the rough coat (transmittance
+// t(mu; m, n), rough_coat.h: the microfacet transmission integrated over
+// the refracted directions), reflected diffusely by the base, and escaping
+// with transmittance t(<N|E>); radiance leaving the dense medium is divided
+// by n^2. Light reflected back at the coat's underside (fraction F_int, the
+// rough coat's internal diffuse reflectance, total internal reflection
+// included) returns to the base, and the geometric series of these bounces
+// gives 1 / (1 - rd F_int). This is Mitsuba 3's `roughplastic` with
+// `nonlinear = true` (the same t and F_int, interpolated from tables).
 //
-// Approximation (stated, measured): the transmittances use the smooth-coat
-// Fresnel F at the macroscopic angle, whereas a rough coat transmits
-// 1 - (its microfacet reflection's albedo). The two differ by less than
-// 2e-3 of the incident energy for roughness <= 1 and n in [1.1, 2.5]
-// (numerical integration), so the albedo is <= 1 + 2e-3 (brdf_test).
-// Reciprocal: both terms are symmetric in L and E. No absorption in the coat,
-// no scattering between coat facets.
+// Why rough and not the smooth-coat 1 - F(<N|L>): a rough coat transmits
+// more at grazing angles (facets tilted towards the light): at Beckmann
+// m 0.31, n 1.37 the smooth form's base falls 2.3x faster towards 85
+// degrees (docs/measurements.md, "Rough plastic against the coated model").
+// Energy: with a white base the albedo is the coat's reflection plus
+// t(<N|L>) times the share of the base's light that escapes, <= 1 up to the
+// tables' interpolation (brdf_test). Reciprocal: both terms are symmetric
+// in L and E. No absorption in the coat, no scattering between coat facets.
 #pragma once
 #include "brdf/common.h"
 #include "brdf/fresnel.h"
 #include "brdf/microfacet.h"
 #include "brdf/model.h"
+#include "brdf/rough_coat.h"
 
 namespace svbrdf::brdf {
 
@@ -38,21 +41,23 @@ template <class T> struct Coated {
   RgbT<T> rd;
   T m, n;
   Distribution distribution = Distribution::kGGX;
-  // F_int(n), set by Prepare() once the parameters are read (batched
-  // evaluation: it depends on n only and costs as much as the rest of f).
+  // F_int(m, n) and the coat's t(mu), set by Prepare() once the parameters
+  // are read (batched evaluation: they depend on m and n only).
   T f_int_prepared = T(0);
+  CoatTransmittanceCurve<T> t_prepared;
   bool prepared = false;
   void Prepare() {
-    f_int_prepared = DielectricInternalDiffuseReflectance(n);
+    f_int_prepared = CoatInternalReflectance(distribution, m, n);
+    t_prepared = CoatTransmittanceCurve<T>(distribution, m, n);
     prepared = true;
   }
 
   RgbT<T> f(const Vec3T<T>& wi, const Vec3T<T>& wo) const {
     const Vec3T<T> h = HalfVector(wi, wo);
     const T coat = SmithMicrofacet(distribution, wi, wo, h, m) * FresnelDielectric(Dot(h, wo), n);
-    const T through = (T(1) - FresnelDielectric(wi.z(), n)) * (T(1) - FresnelDielectric(wo.z(), n)) /
-                      (T(kPi) * n * n);
-    const T f_int = prepared ? f_int_prepared : DielectricInternalDiffuseReflectance(n);
+    const CoatTransmittanceCurve<T> t = prepared ? t_prepared : CoatTransmittanceCurve<T>(distribution, m, n);
+    const T through = t(wi.z()) * t(wo.z()) / (T(kPi) * n * n);
+    const T f_int = prepared ? f_int_prepared : CoatInternalReflectance(distribution, m, n);
     RgbT<T> v;
     for (int c = 0; c < 3; ++c) v[c] = coat + rd[c] * through / (T(1) - rd[c] * f_int);
     return v;

@@ -5,6 +5,7 @@
 
 #include "brdf/fresnel.h"
 #include "brdf/microfacet.h"
+#include "brdf/rough_coat.h"
 #include "core/error.h"
 
 namespace svbrdf {
@@ -195,7 +196,7 @@ BasisMaterial NearestForm::AsBasis(const std::string& name) const {
       // Invert BaseForCoupling twice: Mitsuba's coupling / base_scale = our g, then our rd with rd / (1 - rd F_int) = g.
       b.spec.family = Family::kCoated;
       b.spec.distribution = distribution;
-      const double f_int = brdf::DielectricInternalDiffuseReflectance(ior);
+      const double f_int = brdf::CoatInternalReflectance(distribution, alpha, ior);
       Rgb rd_ours;
       for (int c = 0; c < 3; ++c) {
         const double g = base[c] / (1 - base[c] * plastic.internal_reflectance) / base_scale;
@@ -269,24 +270,26 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
       f.plastic = RoughPlastic::Make(dist, f.alpha, f.ior);
       {
         // Least-squares scale of Mitsuba's base term t(mu_i) t(mu_o) onto ours
-        // (1 - F(mu_i)) (1 - F(mu_o)) over the direction pairs (the coats are equal).
+        // (the same t, from our tables) over the direction pairs (the coats
+        // are equal): 1 up to the tables' interpolation.
         double tt = 0, to = 0;
         for (size_t j = 0; j < d.size(); ++j) {
           const double w = d.weight[j] * d.wi[j].z() * d.wi[j].z();
           const double mi = f.plastic.Transmittance(d.wi[j].z()) * f.plastic.Transmittance(d.wo[j].z());
-          const double ours = (1 - brdf::FresnelDielectric(d.wi[j].z(), f.ior)) * (1 - brdf::FresnelDielectric(d.wo[j].z(), f.ior));
+          const double ours = brdf::CoatTransmittance(dist, d.wi[j].z(), f.alpha, f.ior) *
+                              brdf::CoatTransmittance(dist, d.wo[j].z(), f.alpha, f.ior);
           tt += w * mi * mi;
           to += w * mi * ours;
         }
         f.base_scale = tt > 0 ? to / tt : 1.0;
         const Rgb rd = BasisParamRgb(b, "rd");
-        const double f_int = brdf::DielectricInternalDiffuseReflectance(f.ior);
+        const double f_int = brdf::CoatInternalReflectance(dist, f.alpha, f.ior);
         for (int c = 0; c < 3; ++c)
           f.base[c] = BaseForCoupling(f.base_scale * rd[c] / (1 - rd[c] * f_int), f.plastic.internal_reflectance);
       }
-      f.how = Msg("nearest: roughplastic (nonlinear); same coat, base through the rough coat's transmittance, scaled by ",
-                  f.base_scale, " (least squares; F_int ", f.plastic.internal_reflectance, " vs ours ",
-                  brdf::DielectricInternalDiffuseReflectance(f.ior), ")");
+      f.how = Msg("nearest: roughplastic (nonlinear); the same model, its transmittance computed for this material "
+                  "instead of interpolated (base scaled by ", f.base_scale, "; F_int ", f.plastic.internal_reflectance,
+                  " vs ours ", brdf::CoatInternalReflectance(dist, f.alpha, f.ior), ")");
       break;
     default:
       f = FitForm(b, d);

@@ -1,6 +1,6 @@
 // Mitsuba 3's `roughplastic` BSDF, evaluated as Mitsuba evaluates it, so the
 // export can state how far it is from our coated model (brdf/coated.h) and
-// bake textures that reproduce our base coupling exactly.
+// write the base albedo that reproduces ours.
 //
 //   f(wi, wo) = D(h) G1(wi) G1(wo) F_n(<h|wi>) / (4 <n|wi><n|wo>)                  coat (same as ours)
 //             + rd t(<n|wi>) t(<n|wo>) / (pi n^2 (1 - rd F_int))                    base (nonlinear = true)
@@ -20,14 +20,14 @@
 //   nonlinear = false    replaces rd F_int by F_int in the denominator.
 //
 // Source: Mitsuba 3.9 roughplastic.cpp and microfacet.h (eval_transmittance,
-// eval_reflectance), read for the definitions; the integrals here use our own
-// quadrature (u = CDF of the slope distribution, midpoint rule), which
-// converges to the same values (scripts/check_mitsuba_export.py --plastic
-// compares with Mitsuba's own BSDF evaluation).
+// eval_reflectance), read for the definitions; the integrals are our own
+// quadrature (brdf/rough_coat.h), which converges to the same values
+// (scripts/check_mitsuba_export.py --plastic compares with Mitsuba's own
+// BSDF evaluation).
 //
-// Ours differs only in the base term: (1 - F_n(<n|wi>)) (1 - F_n(<n|wo>)) of a
-// smooth coat instead of t(<n|wi>) t(<n|wo>), and the smooth-interface closed
-// form for F_int (fresnel.h) instead of the rough one.
+// Our coated model (brdf/coated.h) is this BSDF with nonlinear = true: the
+// same coat and base, its t and F_int interpolated from tables over
+// (mu, alpha, n) instead of computed for one material.
 #pragma once
 #include <array>
 
