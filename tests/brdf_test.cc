@@ -291,6 +291,34 @@ TEST(Properties, PhongAndBlinnPhongArePositiveButNotReciprocal) {
 
 // ------------------------------------------------------- energy conservation
 
+// A Lafortune lobe with |C| > 1 and a large exponent (the armadillo scan's
+// fit: Cx -1.5, Cz -0.78, n 33) reflects orders of magnitude more light than
+// it receives at grazing incidence; a lobe inside the unit ball does not, and
+// the physically based families are never flagged.
+TEST(Energy, ExplodingLafortuneLobesAreRecognised) {
+  const ModelSpec spec = ModelSpec::FromLabel("lafortune-2");
+  const std::vector<ParamInfo> info = spec.Params();
+  auto params = [&](double cx, double cz, double n) {
+    std::vector<double> p(info.size(), 0.0);
+    for (size_t i = 0; i < info.size(); ++i) {
+      const std::string& name = info[i].name;
+      if (name.rfind("rd_", 0) == 0) p[i] = 0.3;
+      else if (name.find("rho") != std::string::npos) p[i] = 0.2;
+      else if (name.find(".cx") != std::string::npos) p[i] = cx;
+      else if (name.find(".cz") != std::string::npos) p[i] = cz;
+      else if (name.find(".n") != std::string::npos) p[i] = n;
+    }
+    return p;
+  };
+  double albedo = 0;
+  EXPECT_TRUE(ReflectsMoreThanItReceives(spec, params(-1.5, -0.78, 33), &albedo));
+  EXPECT_GT(albedo, 100);
+  EXPECT_FALSE(ReflectsMoreThanItReceives(spec, params(-0.9, 0.9, 20), &albedo));
+  EXPECT_LT(albedo, 1.0);
+  const ModelSpec ct = ModelSpec::FromLabel("cook_torrance-ggx");
+  EXPECT_FALSE(ReflectsMoreThanItReceives(ct, ct.InitialParams()));
+}
+
 TEST(Energy, AlbedoAtMostOne) {
   const double thetas[] = {0.0, 0.5, 1.0, 1.3, 1.5, 1.56};  // up to ~89.4 deg
   for (const ModelSpec& spec : AllModelSpecs()) {

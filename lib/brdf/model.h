@@ -77,6 +77,19 @@ void EvalModel(const ModelSpec& spec, const T* p, const Vec3T<T>& wi, const Vec3
 // double instantiation, compiled once (model.cc).
 Rgb EvalModelD(const ModelSpec& spec, const double* p, const Vec3& wi, const Vec3& wo);
 
+// The largest directional albedo (reflected over incident light, any
+// channel) at incident angles 0, 46, 69 and 85 degrees, by the midpoint
+// rule over the outgoing hemisphere (32 x 64 directions: coarse for lobes
+// sharper than about exponent 500, so compare it with a bar well above 1).
+// Physically based models stay below 1 by construction; Lafortune lobes
+// with |C| > 1 and a large exponent do not (ReflectsMoreThanItReceives).
+double MaxDirectionalAlbedo(const ModelSpec& spec, const double* p);
+// A fit that reflects far more light than it receives (MaxDirectionalAlbedo
+// above 1.5): a Lafortune lobe fitted to the photos' directions that grows
+// by orders of magnitude where no photo saw it (grazing mirror directions),
+// which clamped display-unit errors do not see and a relit view does.
+bool ReflectsMoreThanItReceives(const ModelSpec& spec, const std::vector<double>& p, double* albedo = nullptr);
+
 // Every distinct model, one per label accepted by FromLabel, in a fixed order.
 std::vector<ModelSpec> AllModelSpecs();
 

@@ -318,8 +318,16 @@ void Refine(Clustering& cl, int iterations, bool fits_current) {
       // Warm start: the material already fits most of the cluster's texels.
       // A refit that fails keeps that material (a valid fit of nearly the
       // same texels) instead of ending the reconstruction.
+      // So does a refit that reflects far more light than it receives (a
+      // Lafortune lobe grown where no photo saw it) when the previous did not.
       try {
-        b.params = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
+        const std::vector<double> refit = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
+        double albedo = 0;
+        if (ReflectsMoreThanItReceives(b.spec, refit, &albedo) && !ReflectsMoreThanItReceives(b.spec, b.params))
+          std::fprintf(stderr, "  cluster %d keeps its previous fit: the refit reflects more light than it receives "
+                       "(directional albedo up to %g)\n", k, albedo);
+        else
+          b.params = refit;
       } catch (const Error& e) {
         std::fprintf(stderr, "  warning: %s; cluster %d keeps its previous fit\n", e.what(), k);
       }

@@ -268,6 +268,9 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       const bool warm = t.spec == cl.basis()[k].spec;
       try {
         t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
+        double albedo = 0;
+        if (ReflectsMoreThanItReceives(t.spec, t.fit.params, &albedo))
+          throw Error(Msg("reflects more light than it receives (directional albedo up to ", albedo, ")"));
         t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params, display);
         t.rmse = TrimmedRmse(t.errors);
         t.held_errors = SampleErrors(t.spec, t.fit.params, samples, hold, display);
