@@ -277,32 +277,6 @@ TEST(Cluster, SplitCoherenceTellsRegionsFromInterleavedLabels) {
   EXPECT_EQ(coherence([](int, int) { return 0; }), 1.0);  // one label: nothing split
 }
 
-// The control split says nothing about the material: where the split under
-// test itself runs along the elevations the texels were seen at (a metal on
-// top, paint on the sides), the control takes another principal direction
-// of those elevations, whose halves are about independent of the
-// candidate's, instead of repeating the candidate (which would make a real
-// material split look like model error).
-TEST(Cluster, ControlSplitIsIndependentOfTheCandidate) {
-  const int n = 30;
-  const SampleSet s = MakeSamples({Lambert(0.5, 0.5, 0.5)}, std::vector<int>(n * n, 0), 12);
-  Clustering cl(s, GridAtlas(n, n), Quiet());
-  std::fill(cl.assign().begin(), cl.assign().end(), 0);
-  auto agreement = [&](const std::vector<int>& a, const std::vector<int>& b) {
-    long same = 0, count = 0;
-    for (int t = 0; t < n * n; ++t)
-      if (a[t] != 0 && b[t] != 0) ++count, same += (a[t] < 0) == (b[t] < 0);
-    return double(std::max(same, count - same)) / std::max(1L, count);
-  };
-  const std::vector<int> aligned = GeometrySplitSides(cl, 0);  // a candidate along the first direction
-  EXPECT_EQ(agreement(aligned, GeometrySplitSides(cl, 0)), 1.0);
-  const std::vector<int> control = GeometrySplitSides(cl, 0, aligned);
-  EXPECT_LT(agreement(aligned, control), 0.75);
-  const long minus = std::count(control.begin(), control.end(), -1), plus = std::count(control.begin(), control.end(), 1);
-  EXPECT_EQ(minus + plus, long(n * n));
-  EXPECT_LE(std::abs(minus - plus), 1);
-}
-
 // Extreme texels (1.5 % of a cluster, 40x as bright: few samples, region
 // borders) take one 2-means centroid of the whitened features, and the split
 // of a red + glossy cluster gave a half of just those texels (the Mitsuba

@@ -150,7 +150,7 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
 }
 
 
-std::vector<int> GeometrySplitSides(const Clustering& cl, int k, const std::vector<int>& candidate) {
+std::vector<int> GeometrySplitSides(const Clustering& cl, int k) {
   const SampleSet& s = cl.samples();
   std::vector<int> texels;
   for (int t = 0; t < cl.num_texels(); ++t)
@@ -179,31 +179,11 @@ std::vector<int> GeometrySplitSides(const Clustering& cl, int k, const std::vect
     Z.col(q) /= sd > 1e-12 ? sd : 1.0;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Z.transpose() * Z);
-  // Median split along principal direction q (2 = the largest variance).
-  auto halves = [&](int q) {
-    const Eigen::VectorXd v = eig.eigenvectors().col(q);
-    std::vector<std::pair<double, int>> proj(T);
-    for (size_t j = 0; j < T; ++j) proj[j] = {Z.row(j).dot(v), texels[j]};
-    std::sort(proj.begin(), proj.end());
-    std::vector<int> out(cl.num_texels(), 0);
-    for (size_t j = 0; j < T; ++j) out[proj[j].second] = j < T / 2 ? 1 : -1;
-    return out;
-  };
-  side = halves(2);
-  if (candidate.empty()) return side;
-  // Agreement with the candidate's halves, up to swapping them: 0.5 = independent.
-  auto agreement = [&](const std::vector<int>& sides) {
-    long same = 0, n = 0;
-    for (int t : texels)
-      if (candidate[t] != 0) ++n, same += (candidate[t] < 0) == (sides[t] < 0);
-    return n ? double(std::max(same, n - same)) / n : 0.5;
-  };
-  double best = agreement(side);
-  for (int q = 1; q >= 0; --q) {
-    std::vector<int> other = halves(q);
-    const double a = agreement(other);
-    if (a < best) best = a, side = std::move(other);
-  }
+  const Eigen::VectorXd v = eig.eigenvectors().col(2);
+  std::vector<std::pair<double, int>> proj(T);
+  for (size_t j = 0; j < T; ++j) proj[j] = {Z.row(j).dot(v), texels[j]};
+  std::sort(proj.begin(), proj.end());
+  for (size_t j = 0; j < T; ++j) side[proj[j].second] = j < T / 2 ? 1 : -1;
   return side;
 }
 

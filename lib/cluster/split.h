@@ -33,13 +33,7 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant);
 // material. Within one material such a split gains only what model error
 // lets fits specialised to part of the domain gain; a split into materials
 // must gain clearly more. Returns +1/-1 for the texels of cluster k, 0 else.
-// With `candidate` (the split under test; may be empty): of the three
-// principal directions of those elevations, the one whose halves agree
-// least with the candidate's. Where materials sit at different elevations
-// (a metal on top, paint on the sides) the first direction halves the
-// materials too, and a control that is itself a material split is no
-// evidence of model error.
-std::vector<int> GeometrySplitSides(const Clustering& cl, int k, const std::vector<int>& candidate = {});
+std::vector<int> GeometrySplitSides(const Clustering& cl, int k);
 
 // The models tried for every cluster while splitting: `force_model` alone
 // when set, else `cluster_model` and those `split_models` that are also

@@ -172,7 +172,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // error; a split into materials must beat the control split clearly.
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
       restore(parent);
-      SplitCluster(cl, k, GeometrySplitSides(cl, k, side));
+      SplitCluster(cl, k, GeometrySplitSides(cl, k));
       if (out_of_time()) break;
       if (refine_control) {
         Refine(cl, o.refine_iterations);
