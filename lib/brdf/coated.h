@@ -41,25 +41,22 @@ template <class T> struct Coated {
   RgbT<T> rd;
   T m, n;
   Distribution distribution = Distribution::kGGX;
-  // F_int(m, n) and the coat's t(mu), set by Prepare() once the parameters
-  // are read (batched evaluation: they depend on m and n only).
-  T f_int_prepared = T(0);
-  CoatTransmittanceCurve<T> t_prepared;
+  // The coat's t(mu) and F_int, set by Prepare() once the parameters are
+  // read (batched evaluation: they depend on m and n only).
+  RoughCoat<T> prepared_coat;
   bool prepared = false;
   void Prepare() {
-    f_int_prepared = CoatInternalReflectance(distribution, m, n);
-    t_prepared = CoatTransmittanceCurve<T>(distribution, m, n);
+    prepared_coat = RoughCoat<T>(distribution, m, n);
     prepared = true;
   }
 
   RgbT<T> f(const Vec3T<T>& wi, const Vec3T<T>& wo) const {
     const Vec3T<T> h = HalfVector(wi, wo);
     const T coat = SmithMicrofacet(distribution, wi, wo, h, m) * FresnelDielectric(Dot(h, wo), n);
-    const CoatTransmittanceCurve<T> t = prepared ? t_prepared : CoatTransmittanceCurve<T>(distribution, m, n);
-    const T through = t(wi.z()) * t(wo.z()) / (T(kPi) * n * n);
-    const T f_int = prepared ? f_int_prepared : CoatInternalReflectance(distribution, m, n);
+    const RoughCoat<T> layer = prepared ? prepared_coat : RoughCoat<T>(distribution, m, n);
+    const T through = layer.Transmittance(wi.z()) * layer.Transmittance(wo.z()) / (T(kPi) * n * n);
     RgbT<T> v;
-    for (int c = 0; c < 3; ++c) v[c] = coat + rd[c] * through / (T(1) - rd[c] * f_int);
+    for (int c = 0; c < 3; ++c) v[c] = coat + rd[c] * through / (T(1) - rd[c] * layer.f_int);
     return v;
   }
 };

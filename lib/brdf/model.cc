@@ -171,22 +171,23 @@ Rgb EvalModelD(const ModelSpec& spec, const double* p, const Vec3& wi, const Vec
   return rgb;
 }
 
-double MaxDirectionalAlbedo(const ModelSpec& spec, const double* p) {
-  constexpr int kTheta = 32, kPhi = 64;
-  double worst = 0;
-  for (const double incident : {0.0, 0.8, 1.2, 1.48}) {
-    const Vec3 wi(std::sin(incident), 0, std::cos(incident));
-    Rgb sum = Rgb::Zero();
-    for (int i = 0; i < kTheta; ++i) {
-      const double t = (i + 0.5) * (kPi / 2) / kTheta;
-      for (int j = 0; j < kPhi; ++j) {
-        const double ph = (j + 0.5) * 2 * kPi / kPhi;
-        const Vec3 wo(std::sin(t) * std::cos(ph), std::sin(t) * std::sin(ph), std::cos(t));
-        sum += EvalModelD(spec, p, wi, wo) * (std::cos(t) * std::sin(t));
-      }
+Rgb DirectionalAlbedo(const ModelSpec& spec, const double* p, const Vec3& wi, int n_theta, int n_phi) {
+  Rgb sum = Rgb::Zero();
+  for (int i = 0; i < n_theta; ++i) {
+    const double t = (i + 0.5) * (kPi / 2) / n_theta;
+    for (int j = 0; j < n_phi; ++j) {
+      const double ph = (j + 0.5) * 2 * kPi / n_phi;
+      const Vec3 wo(std::sin(t) * std::cos(ph), std::sin(t) * std::sin(ph), std::cos(t));
+      sum += EvalModelD(spec, p, wi, wo) * (std::cos(t) * std::sin(t));
     }
-    worst = std::max(worst, (sum * (kPi / 2 / kTheta) * (2 * kPi / kPhi)).maxCoeff());
   }
+  return sum * (kPi / 2 / n_theta) * (2 * kPi / n_phi);
+}
+
+double MaxDirectionalAlbedo(const ModelSpec& spec, const double* p) {
+  double worst = 0;
+  for (const double incident : {0.0, 0.8, 1.2, 1.48})
+    worst = std::max(worst, DirectionalAlbedo(spec, p, Vec3(std::sin(incident), 0, std::cos(incident)), 32, 64).maxCoeff());
   return worst;
 }
 

@@ -77,10 +77,14 @@ void EvalModel(const ModelSpec& spec, const T* p, const Vec3T<T>& wi, const Vec3
 // double instantiation, compiled once (model.cc).
 Rgb EvalModelD(const ModelSpec& spec, const double* p, const Vec3& wi, const Vec3& wo);
 
+// Directional albedo int f(wi, wo) cos(theta_o) dwo, midpoint rule on an
+// n_theta x n_phi grid in (theta, phi): uniform in angle, so narrow lobes
+// near the normal get as many cells as anywhere else.
+Rgb DirectionalAlbedo(const ModelSpec& spec, const double* p, const Vec3& wi, int n_theta, int n_phi);
 // The largest directional albedo (reflected over incident light, any
-// channel) at incident angles 0, 46, 69 and 85 degrees, by the midpoint
-// rule over the outgoing hemisphere (32 x 64 directions: coarse for lobes
-// sharper than about exponent 500, so compare it with a bar well above 1).
+// channel) at incident angles 0, 46, 69 and 85 degrees, on a 32 x 64 grid
+// (coarse for lobes sharper than about exponent 500, so compare it with a
+// bar well above 1).
 // Physically based models stay below 1 by construction; Lafortune lobes
 // with |C| > 1 and a large exponent do not (ReflectsMoreThanItReceives).
 double MaxDirectionalAlbedo(const ModelSpec& spec, const double* p);

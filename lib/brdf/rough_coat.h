@@ -73,14 +73,16 @@ template <class T> T IorCoordinate(const T& n) {
 }
 }  // namespace rough_coat_detail
 
-// t(mu) of one coat: the four table rows around its (alpha, n) with their
-// bilinear weights, found once per parameter set (Coated::Prepare), then
+// One coat's entries in the tables: the four (alpha, n) nodes around it with
+// their interpolation weights, found once per parameter set
+// (Coated::Prepare): its internal reflectance F_int, and its t(mu)
 // interpolated in mu for every direction.
-template <class T> struct CoatTransmittanceCurve {
-  const float* row[4] = {nullptr, nullptr, nullptr, nullptr};
+template <class T> struct RoughCoat {
+  const float* row[4] = {nullptr, nullptr, nullptr, nullptr};  // t over mu at the four nodes
   T weight[4];
-  CoatTransmittanceCurve() = default;
-  CoatTransmittanceCurve(Distribution d, const T& alpha, const T& n) {
+  T f_int = T(0);
+  RoughCoat() = default;
+  RoughCoat(Distribution d, const T& alpha, const T& n) {
     using namespace rough_coat_detail;
     const RoughCoatTable& tab = RoughCoatTable::Get(d);
     T fa, fn;
@@ -89,8 +91,11 @@ template <class T> struct CoatTransmittanceCurve {
     row[0] = tab.t[ia][in], row[1] = tab.t[ia][in + 1], row[2] = tab.t[ia + 1][in], row[3] = tab.t[ia + 1][in + 1];
     weight[0] = (T(1) - fa) * (T(1) - fn), weight[1] = (T(1) - fa) * fn;
     weight[2] = fa * (T(1) - fn), weight[3] = fa * fn;
+    const T lo = T(double(tab.f_int[ia][in])) * (T(1) - fn) + T(double(tab.f_int[ia][in + 1])) * fn;
+    const T hi = T(double(tab.f_int[ia + 1][in])) * (T(1) - fn) + T(double(tab.f_int[ia + 1][in + 1])) * fn;
+    f_int = lo * (T(1) - fa) + hi * fa;
   }
-  T operator()(const T& mu) const {
+  T Transmittance(const T& mu) const {
     T fm;
     const int im = rough_coat_detail::Cell(mu, RoughCoatTable::kMu, &fm);
     T sum = T(0);
@@ -101,18 +106,11 @@ template <class T> struct CoatTransmittanceCurve {
 };
 
 template <class T> T CoatTransmittance(Distribution d, const T& mu, const T& alpha, const T& n) {
-  return CoatTransmittanceCurve<T>(d, alpha, n)(mu);
+  return RoughCoat<T>(d, alpha, n).Transmittance(mu);
 }
 
 template <class T> T CoatInternalReflectance(Distribution d, const T& alpha, const T& n) {
-  using namespace rough_coat_detail;
-  const RoughCoatTable& tab = RoughCoatTable::Get(d);
-  T fa, fn;
-  const int ia = Cell(AlphaCoordinate(alpha), RoughCoatTable::kAlpha, &fa);
-  const int in = Cell(IorCoordinate(n), RoughCoatTable::kIor, &fn);
-  const T lo = T(double(tab.f_int[ia][in])) * (T(1) - fn) + T(double(tab.f_int[ia][in + 1])) * fn;
-  const T hi = T(double(tab.f_int[ia + 1][in])) * (T(1) - fn) + T(double(tab.f_int[ia + 1][in + 1])) * fn;
-  return lo * (T(1) - fa) + hi * fa;
+  return RoughCoat<T>(d, alpha, n).f_int;
 }
 
 }  // namespace svbrdf::brdf

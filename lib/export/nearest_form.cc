@@ -272,24 +272,23 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
         // Least-squares scale of Mitsuba's base term t(mu_i) t(mu_o) onto ours
         // (the same t, from our tables) over the direction pairs (the coats
         // are equal): 1 up to the tables' interpolation.
+        const brdf::RoughCoat<double> coat(dist, f.alpha, f.ior);
         double tt = 0, to = 0;
         for (size_t j = 0; j < d.size(); ++j) {
           const double w = d.weight[j] * d.wi[j].z() * d.wi[j].z();
           const double mi = f.plastic.Transmittance(d.wi[j].z()) * f.plastic.Transmittance(d.wo[j].z());
-          const double ours = brdf::CoatTransmittance(dist, d.wi[j].z(), f.alpha, f.ior) *
-                              brdf::CoatTransmittance(dist, d.wo[j].z(), f.alpha, f.ior);
+          const double ours = coat.Transmittance(d.wi[j].z()) * coat.Transmittance(d.wo[j].z());
           tt += w * mi * mi;
           to += w * mi * ours;
         }
         f.base_scale = tt > 0 ? to / tt : 1.0;
         const Rgb rd = BasisParamRgb(b, "rd");
-        const double f_int = brdf::CoatInternalReflectance(dist, f.alpha, f.ior);
         for (int c = 0; c < 3; ++c)
-          f.base[c] = BaseForCoupling(f.base_scale * rd[c] / (1 - rd[c] * f_int), f.plastic.internal_reflectance);
+          f.base[c] = BaseForCoupling(f.base_scale * rd[c] / (1 - rd[c] * coat.f_int), f.plastic.internal_reflectance);
+        f.how = Msg("nearest: roughplastic (nonlinear); the same model, its transmittance computed for this material "
+                    "instead of interpolated (base scaled by ", f.base_scale, "; F_int ", f.plastic.internal_reflectance,
+                    " vs ours ", coat.f_int, ")");
       }
-      f.how = Msg("nearest: roughplastic (nonlinear); the same model, its transmittance computed for this material "
-                  "instead of interpolated (base scaled by ", f.base_scale, "; F_int ", f.plastic.internal_reflectance,
-                  " vs ours ", brdf::CoatInternalReflectance(dist, f.alpha, f.ior), ")");
       break;
     default:
       f = FitForm(b, d);
