@@ -14,6 +14,23 @@ namespace {
 // A refined control split whose partition matches the candidate's on this
 // share of the texels found the same regions (see the control test below).
 constexpr double kControlSamePartition = 0.95;
+// A control split that halves the cluster's texels as the candidate does on
+// this share of them (0.5: independent halves) is confounded with the
+// candidate: where the materials themselves sit at different elevations
+// (a metal on top, paint around), the geometric direction halves the
+// materials too, and the unrefined control gains nearly all the candidate
+// gains. Both are then refined before they are compared, as one split past
+// the best (see the control test below).
+constexpr double kControlConfounded = 0.7;
+
+// Share of the texels where both +-1 splits are set on which they agree, up
+// to swapping the halves (0.5 for independent splits, 1 for the same one).
+double SideAgreement(const std::vector<int>& a, const std::vector<int>& b) {
+  long same = 0, n = 0;
+  for (size_t t = 0; t < a.size() && t < b.size(); ++t)
+    if (a[t] != 0 && b[t] != 0) same += a[t] == b[t], ++n;
+  return n > 0 ? double(std::max(same, n - same)) / n : 0.0;
+}
 
 // Moves the side < 0 texels of cluster k to a new cluster and fits both
 // halves, each with the split model that suits it (FitSplitModel).
@@ -118,6 +135,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       continue;
     }
     const State parent{cl.basis(), cl.assign(), 0.0, {}};
+    const std::vector<int> control_side = GeometrySplitSides(cl, k);
+    const double confounding = SideAgreement(side, control_side);
     SplitCluster(cl, k, side);
     // The control: the same cluster halved along a direction that says
     // nothing about the material (GeometrySplitSides), scored before
@@ -129,7 +148,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     // the search fell back to 1 cluster).
     std::vector<double> candidate_sse, control_sse;
     const bool honest_test = o.force_clusters == 0 && o.control_split;
-    const bool refine_control = lookahead;
+    const bool confounded = confounding >= kControlConfounded;
+    const bool refine_control = lookahead || confounded;
     if (out_of_time()) break;
     if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
     Refine(cl, o.refine_iterations, true);
@@ -172,7 +192,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // error; a split into materials must beat the control split clearly.
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
       restore(parent);
-      SplitCluster(cl, k, GeometrySplitSides(cl, k));
+      SplitCluster(cl, k, control_side);
       if (out_of_time()) break;
       if (refine_control) {
         Refine(cl, o.refine_iterations);
@@ -191,7 +211,9 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
       const bool same = agreement >= kControlSamePartition;
       passes = same || (gain >= std::min(o.min_improvement, o.control_min_share * drop) && zc >= o.min_z);
-      control_note += Msg("; vs control split: ", 100 * gain, " % lower, z = ", zc,
+      control_note += Msg("; vs control split", confounded ? Msg(" (refined: it halves ", 100 * confounding,
+                                                                 " % of texels as the candidate)") : std::string(),
+                          ": ", 100 * gain, " % lower, z = ", zc,
                           same ? Msg(" (refined into the same partition: ", 100 * agreement, " % of texels)")
                                : std::string(passes ? "" : ": model error, not materials"));
     }
