@@ -631,6 +631,44 @@ TEST(Material, NormalMapSpaceRoundTripsAndWorldIsTheDefault) {
   EXPECT_EQ(LoadMaterial(dir / "w").normal_map_space, NormalMapSpace::kWorld);
 }
 
+// Photometric materials' light residuals (io/material.h): directions and
+// maps round-trip; the neighbours of a direction are the nearest in angle
+// with weights 1 / angle summing to 1, and a direction that is a sample's
+// gets that sample alone.
+TEST(Material, LightResidualsRoundTripAndInterpolateTheNearest) {
+  TempDir dir;
+  Material a = MakeMaterial();
+  a.light_residual_directions = {Vec3(0, 0, 1), Vec3(std::sin(0.1), 0, std::cos(0.1)),
+                                 Vec3(0, std::sin(0.2), std::cos(0.2)), Vec3(-1, 0, 0)};
+  for (int k = 0; k < 4; ++k) a.light_residuals.push_back(Image(6, 4, 3, 0.25f * k - 0.5f));
+  SaveMaterial(a, dir / "r");
+  const Material b = LoadMaterial(dir / "r");
+  ASSERT_EQ(b.light_residuals.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_LT((b.light_residual_directions[k] - a.light_residual_directions[k]).norm(), 1e-12);
+    EXPECT_EQ(b.light_residuals[k].pixels, a.light_residuals[k].pixels);
+  }
+  int index[kLightResidualNeighbours];
+  double weight[kLightResidualNeighbours];
+  const Vec3 d = Vec3(std::sin(0.05), 0, std::cos(0.05));  // halfway between samples 0 and 1
+  ASSERT_EQ(LightResidualNeighbours(a.light_residual_directions, d, -1, index, weight), 3);
+  EXPECT_EQ(index[2], 2);  // the -x sample is the farthest: not among the three
+  EXPECT_NEAR(weight[0], weight[1], 1e-9);
+  EXPECT_NEAR(weight[0] + weight[1] + weight[2], 1.0, 1e-12);
+  const double a2 = std::acos(d.dot(a.light_residual_directions[2])), a0 = 0.05;
+  EXPECT_NEAR(weight[2] / weight[0], a0 / a2, 1e-9);
+  LightResidualNeighbours(a.light_residual_directions, a.light_residual_directions[1], -1, index, weight);
+  EXPECT_EQ(index[0], 1);
+  EXPECT_GT(weight[0], 1 - 1e-4);
+  // Left out (leave-one-out): never among its own neighbours.
+  ASSERT_EQ(LightResidualNeighbours(a.light_residual_directions, a.light_residual_directions[1], 1, index, weight), 3);
+  for (int k = 0; k < 3; ++k) EXPECT_NE(index[k], 1);
+  // More maps than directions cannot be written.
+  a.light_residual_directions.pop_back();
+  ExpectError([&] { SaveMaterial(a, dir / "bad"); }, {"3 directions"});
+  EXPECT_FALSE(fs::exists(dir / "bad"));
+}
+
 TEST(Material, ErrorsNameTheField) {
   TempDir dir;
   SaveMaterial(MakeMaterial(), dir / "m");
@@ -658,6 +696,13 @@ TEST(Material, ErrorsNameTheField) {
       {[](json& j) { j["normal_map_space"] = 1; }, "normal_map_space: expected string"},
       {[](json& j) { j.erase("normal_map"), j["normal_map_space"] = "tangent"; },
        "normal_map_space: given without a \"normal_map\""},
+      {[](json& j) { j["light_residuals"] = {{"directions", {{0, 0, 1}, {0, 1, 0}}}, {"maps", {"normal.exr"}}}; },
+       "light_residuals: expected as many directions as maps (at least one), got 2 and 1"},
+      {[](json& j) { j["light_residuals"] = {{"directions", {{0, 0, 2}}}, {"maps", {"normal.exr"}}}; },
+       "light_residuals.directions[0]: expected a unit vector, got length 2"},
+      {[](json& j) { j["light_residuals"] = {{"directions", {{0, 0, 1}}}, {"maps", {"confidence.exr"}}}; },
+       "light_residuals.maps[0]: "},
+      {[](json& j) { j["light_residuals"] = {{"directions", {{0, 0, 1}}}}; }, "light_residuals.maps: missing"},
   };
   for (const Case& c : cases) {
     json j = good;

@@ -6,10 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "core/error.h"
+#include "core/rng.h"
 #include "io/scene.h"
 #include "photometric/dictionary_fit.h"
+#include "photometric/transfer.h"
 #include "photometric/observations.h"
 #include "photometric/pixel_mesh.h"
 #include "photometric/ps_folder.h"
@@ -215,6 +218,49 @@ PsObservations SyntheticObservations(const std::vector<Vec3>& normals, const std
     }
   }
   return o;
+}
+
+// Light residuals (transfer.h FitResidualField): a residual that varies
+// smoothly over the light directions (a lobe the basis lacks) carries to a
+// left-out light, so the pixel's share is near 1 and the field is kept;
+// residuals that are independent noise per photo carry nothing: share near
+// 0, not kept. The stored maps are the residuals times the share.
+TEST(Photometric, LightResidualsAreKeptWhereTheyCarryToNeighbouringLights) {
+  const std::vector<Vec3> normals(8, Vec3(0, 0, -1));
+  const std::vector<Rgb> albedo(8, Rgb(0.5, 0.4, 0.3));
+  BasisMaterial lambert = DictionaryCandidates()[0];
+  const std::vector<BasisMaterial> basis = {lambert};
+  std::vector<Image> weights = {Image(8, 1, 3)};
+  for (int p = 0; p < 8; ++p)
+    for (int c = 0; c < 3; ++c) weights[0].at(p, 0, c) = float(albedo[p][c]);
+  DictionaryFitOptions o;
+  o.threads = 1;
+  o.residual_window = 1;
+  Image normals_cam(8, 1, 3);
+  for (int p = 0; p < 8; ++p) normals_cam.at(p, 0, 2) = -1.0f;
+  // Smooth: the photos hold a glossy lobe (the same pixels with a
+  // Cook-Torrance term) that the Lambert-only basis cannot.
+  const BasisMaterial lobe = DictionaryCandidates().back();
+  PsObservations smooth = SyntheticObservations(normals, albedo, 0.2, lobe);
+  const ResidualField kept = FitResidualField(smooth, basis, weights, {}, normals_cam, {}, o);
+  EXPECT_TRUE(kept.kept);
+  EXPECT_LT(kept.loo_error_with, 0.5 * kept.loo_error_without);
+  EXPECT_GT(kept.share.at(3, 0, 0), 0.7f);
+  ASSERT_EQ(kept.maps.size(), size_t(smooth.lights));
+  ASSERT_EQ(kept.directions.size(), size_t(smooth.lights));
+  const int l = 7, p = 3;
+  const double lambertian = std::max(0.0, -smooth.to_light[l].z()) * albedo[p][1] / kPi;
+  EXPECT_NEAR(kept.maps[l].at(p, 0, 1), kept.share.at(p, 0, 0) * (smooth.value[smooth.At(p, l) + 1] - lambertian),
+              1e-5);
+  // Noise: the Lambertian photos plus independent noise per photo.
+  PsObservations noisy = SyntheticObservations(normals, albedo, 0.0, lobe);
+  Rng rng(7);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (float& v : noisy.value) v += float(noise(rng));
+  const ResidualField dropped = FitResidualField(noisy, basis, weights, {}, normals_cam, {}, o);
+  EXPECT_FALSE(dropped.kept);
+  EXPECT_TRUE(dropped.maps.empty());
+  EXPECT_LT(dropped.share.at(3, 0, 0), 0.3f);
 }
 
 TEST(Photometric, LambertianNormalsAndDictionaryFitRecoverClosedFormPixels) {

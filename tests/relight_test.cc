@@ -92,6 +92,42 @@ bool AnalyticHit(const Scene& s, double px, double py, double radius, Vec3* x) {
   return true;
 }
 
+// The shader's transfer for a distant light adds the light residuals
+// interpolated between the nearest sample directions (io/material.h) to the
+// polynomial transfer; a new direction is not served the previous one's
+// neighbours (they are cached per direction).
+TEST(Relight, TransferAddsTheInterpolatedLightResiduals) {
+  Material mat;
+  mat.width = 2, mat.height = 1;
+  mat.texture_filter = TextureFilter::kNearest;
+  mat.light_transfer.assign(4, Image(2, 1, 3));
+  for (int c = 0; c < 3; ++c) mat.light_transfer[0].at(1, 0, c) = 0.05f;  // constant term
+  mat.light_residual_directions = {Vec3(0, 0, 1), Vec3(std::sin(0.2), 0, std::cos(0.2)),
+                                   Vec3(0, std::sin(0.2), std::cos(0.2)), Vec3(-std::sin(0.2), 0, std::cos(0.2))};
+  for (int k = 0; k < 4; ++k) {
+    mat.light_residuals.push_back(Image(2, 1, 3));
+    for (int c = 0; c < 3; ++c) mat.light_residuals[k].at(1, 0, c) = float(0.1 * (k + 1) * (c + 1));
+  }
+  const MaterialShader shader(mat);
+  ASSERT_TRUE(shader.HasTransfer());
+  const Vec2 texel1(0.75, 0.5);
+  for (const Vec3& d : {Vec3(std::sin(0.1), 0, std::cos(0.1)), mat.light_residual_directions[2],
+                        Vec3(std::sin(0.1), 0, std::cos(0.1))}) {
+    int index[kLightResidualNeighbours];
+    double weight[kLightResidualNeighbours];
+    const int n = LightResidualNeighbours(mat.light_residual_directions, d, -1, index, weight);
+    Rgb expected = Rgb::Constant(0.05);
+    for (int k = 0; k < n; ++k)
+      for (int c = 0; c < 3; ++c) expected[c] += weight[k] * 0.1 * (index[k] + 1) * (c + 1);
+    const Rgb t = shader.Transfer(texel1, d);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(t[c], expected[c], 1e-6);
+  }
+  // Exactly on sample 2: its residual alone (weights 1 / angle).
+  EXPECT_NEAR(shader.Transfer(texel1, mat.light_residual_directions[2])[0], 0.05 + 0.3, 1e-4);
+  // Texel 0 holds no transfer and no residual.
+  EXPECT_EQ(shader.Transfer(Vec2(0.25, 0.5), Vec3(0, 0, 1))[0], 0.0);
+}
+
 TEST(Relight, LambertianSphereMatchesClosedForm) {
   const double rd = 0.6, intensity = 5.0;
   const Mesh mesh = Sphere(kRadius, Vec3::Zero());

@@ -141,6 +141,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_option("--ps-search-misfit", job->photometric.search_misfit,
                 "photometric captures with unknown normals: search the normals under the fitted basis where the\n"
                 "Lambertian start misfits its inlier photos by more than this relative RMS (0 = everywhere)");
+  c->add_option("--ps-residual-window", job->photometric.residual_window,
+                "photometric captures: what the model leaves in the photos is interpolated between the nearest lights,\n"
+                "scaled per pixel by the share that carries to a left-out light, pooled over (2 r + 1)^2 pixels\n"
+                "(kept when the leave-one-light-out error drops; -1 = off)");
   c->add_option("--for", job->render_target,
                 "fit only models the export target renders exactly: mitsuba (lambert, Smith Cook-Torrance, conductors)\n"
                 "or gltf (the glTF metallic-roughness BRDF); any = every candidate (default)")

@@ -9,11 +9,14 @@
 //    "material_id": "material_id.png",            // optional, integer basis index per texel
 //    "texture_filter": "nearest",                 // optional, "bilinear" (absent) or "nearest"
 //    "light_transfer": ["transfer/t0.exr", ...],  // optional, 4, 9 or 16 RGB maps: light transfer beyond the BRDF (material.h)
+//    "light_residuals": {"directions": [[x, y, z], ...],   // optional, world unit vectors, one per map
+//                        "maps": ["transfer/r0.exr", ...]}, // RGB residual radiance per unit irradiance (material.h)
 //    "info": {...}}                               // optional, free-form provenance
 #include "io/material.h"
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -111,12 +114,35 @@ json BasisToJson(const BasisMaterial& b) {
 
 BasisMaterial BasisFromJson(const json& j, const std::string& context) { return BasisFromField(JsonField(j, context)); }
 
+int LightResidualNeighbours(const std::vector<Vec3>& dirs, const Vec3& d, int exclude, int* index, double* weight) {
+  // The nearest in angle are the largest cosines; a small insertion list.
+  double best_cos[kLightResidualNeighbours];
+  int n = 0;
+  for (int j = 0; j < int(dirs.size()); ++j) {
+    if (j == exclude) continue;
+    const double c = dirs[j].dot(d);
+    int at = n < kLightResidualNeighbours ? n++ : kLightResidualNeighbours;
+    while (at > 0 && best_cos[at - 1] < c) {
+      if (at < kLightResidualNeighbours) best_cos[at] = best_cos[at - 1], index[at] = index[at - 1];
+      --at;
+    }
+    if (at < kLightResidualNeighbours) best_cos[at] = c, index[at] = j;
+  }
+  double sum = 0;
+  for (int k = 0; k < n; ++k) {
+    weight[k] = 1.0 / std::max(std::acos(std::clamp(best_cos[k], -1.0, 1.0)), 1e-6);
+    sum += weight[k];
+  }
+  for (int k = 0; k < n; ++k) weight[k] /= sum;
+  return n;
+}
+
 Material LoadMaterial(const std::string& dir) {
   const std::string file = (fs::path(dir) / "material.json").string();
   const json j = ReadJsonFile(file);
   const JsonField root(j, file);
   root.AllowOnly({"format", "mesh", "resolution", "basis", "weights", "normal_map", "normal_map_space", "confidence",
-                  "material_id", "texture_filter", "light_transfer", "info"});
+                  "material_id", "texture_filter", "light_transfer", "light_residuals", "info"});
   const std::string format = root.Get<std::string>("format");
   if (format != kMaterialFormat) root.FailAt("format", Msg("expected \"", kMaterialFormat, "\", got \"", format, "\""));
 
@@ -188,6 +214,28 @@ Material LoadMaterial(const std::string& dir) {
       }
     }
   }
+  if (root.Has("light_residuals")) {
+    const JsonField r = root.Member("light_residuals");
+    r.AllowOnly({"directions", "maps"});
+    const std::vector<JsonField> dirs = r.Items("directions"), files = r.Items("maps");
+    if (dirs.size() != files.size() || dirs.empty())
+      r.Fail(Msg("expected as many directions as maps (at least one), got ", dirs.size(), " and ", files.size()));
+    for (const JsonField& d : dirs) {
+      const Vec3 v = d.As<Vec3>();
+      if (!(std::abs(v.norm() - 1.0) < 1e-3)) d.Fail(Msg("expected a unit vector, got length ", v.norm()));
+      m.light_residual_directions.push_back(v.normalized());
+    }
+    for (const JsonField& file : files) {
+      const std::string path = (fs::path(dir) / file.As<std::string>()).string();
+      try {
+        m.light_residuals.push_back(ReadImage(path));
+        CheckMap(m.light_residuals.back(), m.width, m.height, 3, path);
+        CheckValues(m.light_residuals.back(), -1e4f, 1e4f, path);
+      } catch (const Error& e) {
+        file.Fail(e.what());
+      }
+    }
+  }
   if (root.Has("texture_filter")) {
     const std::string filter = root.Get<std::string>("texture_filter");
     if (filter == "nearest") m.texture_filter = TextureFilter::kNearest;
@@ -212,6 +260,10 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
   if (!m.light_transfer.empty() && !ValidLightTransferTerms(int(m.light_transfer.size())))
     throw Error(Msg(where, ": light_transfer has ", m.light_transfer.size(), " maps, expected 4, 9 or 16"));
   for (const Image& t : m.light_transfer) CheckMap(t, m.width, m.height, 3, where + ": light_transfer");
+  if (m.light_residuals.size() != m.light_residual_directions.size())
+    throw Error(Msg(where, ": ", m.light_residuals.size(), " light residual maps for ", m.light_residual_directions.size(),
+                    " directions"));
+  for (const Image& r : m.light_residuals) CheckMap(r, m.width, m.height, 3, where + ": light_residuals");
 
   OutputFolder out(dir.string());
   const fs::path tmp = out.path();
@@ -255,6 +307,18 @@ void SaveMaterial(const Material& m, const std::string& dir_in) {
         WriteImage((tmp / rel).string(), m.light_transfer[k], PixelFormat::kFloat);
         j["light_transfer"].push_back(rel);
       }
+    }
+    if (!m.light_residuals.empty()) {
+      fs::create_directories(tmp / "transfer");
+      json dirs = json::array(), maps = json::array();
+      for (size_t k = 0; k < m.light_residuals.size(); ++k) {
+        const Vec3& d = m.light_residual_directions[k];
+        dirs.push_back({d.x(), d.y(), d.z()});
+        const std::string rel = Msg("transfer/r", k, ".exr");
+        WriteImage((tmp / rel).string(), m.light_residuals[k], PixelFormat::kFloat);
+        maps.push_back(rel);
+      }
+      j["light_residuals"] = {{"directions", dirs}, {"maps", maps}};
     }
     if (!m.extra.is_null()) j["info"] = m.extra;
     WriteFileAtomic((tmp / "material.json").string(), j.dump(2) + "\n");

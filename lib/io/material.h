@@ -42,6 +42,21 @@ inline void LightTransferTerms(const Vec3& d, double* phi) {
   for (int k = 0; k < kLightTransferMaxTerms; ++k) phi[k] = v[k];
 }
 
+// Light-space samples of what the model leaves in a photometric capture's
+// photos (lib/photometric/transfer.h FitResidualField): per training light,
+// its world direction d_j and an RGB map r_j of residual radiance per unit
+// irradiance, already scaled per texel by the share of it that carried over
+// to neighbouring lights when each was left out. A distant light in world
+// direction d adds E * sum_j w_j r_j over the kLightResidualNeighbours
+// sample directions nearest to d, w_j proportional to 1 / angle(d, d_j)
+// (the 3-nearest-light interpolation of image-based relighting, applied to
+// the model's residuals instead of the photos).
+constexpr int kLightResidualNeighbours = 3;
+// Indices into `dirs` and weights (summing to 1) of the samples for unit
+// direction d, nearest first; `exclude` (>= 0) is left out. Returns how many
+// (min(kLightResidualNeighbours, usable samples)).
+int LightResidualNeighbours(const std::vector<Vec3>& dirs, const Vec3& d, int exclude, int* index, double* weight);
+
 struct Material {
   std::string dir;               // folder of material.json
   Mesh mesh;
@@ -55,6 +70,9 @@ struct Material {
   Image material_id;             // 1 channel, integer ids (basis index); empty when absent
   TextureFilter texture_filter = TextureFilter::kBilinear;  // material.json "texture_filter" (absent = bilinear)
   std::vector<Image> light_transfer;  // 4, 9 or 16 RGB maps (LightTransferTerms), or none (material.json "light_transfer")
+  // Residual samples (LightResidualNeighbours), or none (material.json "light_residuals").
+  std::vector<Vec3> light_residual_directions;  // world frame, unit
+  std::vector<Image> light_residuals;           // one RGB map per direction
   nlohmann::json extra;          // free-form provenance (written as "info")
 };
 

@@ -340,6 +340,8 @@ void DictionaryFitOptions::Check() const {
   if (!(search_misfit >= 0) || !std::isfinite(search_misfit))
     throw Error(Msg("photometric: search_misfit must be a finite number >= 0, got ", search_misfit));
   if (!(min_cos >= 0 && min_cos <= 0.5)) throw Error(Msg("photometric: min_cos must be in [0, 0.5], got ", min_cos));
+  if (residual_window < -1 || residual_window > 10)
+    throw Error(Msg("photometric: residual_window must be in [-1, 10], got ", residual_window));
 }
 
 PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n,

@@ -60,6 +60,9 @@ struct DictionaryFitOptions {
   double prior_rows = 0.0;
   double search_misfit = 0.15;
   double srgb_weight_exponent = 0.5;  // see PsObservations::weight
+  // Light residuals (transfer.h FitResidualField): pixels pooled for each
+  // pixel's carry-over share, (2 r + 1)^2 of them; -1 = none fitted.    [-1, 10]
+  int residual_window = 2;
   int threads = 0;
   // Dictionary models allowed (null: all); Lambert, the first, must be
   // (`reconstruct --for` keeps only what the export target renders exactly).

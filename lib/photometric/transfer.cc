@@ -1,6 +1,7 @@
 #include "photometric/transfer.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -37,6 +38,95 @@ std::vector<Rgb> DirectPrediction(const PsObservations& obs, const std::vector<B
   return out;
 }
 
+// Weighted ridge fit of pixel p's residuals from `direct` with the first
+// `terms` transfer terms on the photos with `in`; c (terms x 3).
+Eigen::MatrixXd FitTransferTerms(const PsObservations& obs, long p, const std::vector<Rgb>& direct,
+                                 const std::vector<std::array<double, kTerms>>& phi, const std::vector<char>& in,
+                                 int terms, double ridge) {
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(terms, 3);
+  for (int ch = 0; ch < 3; ++ch) {
+    Eigen::MatrixXd AtA = Eigen::MatrixXd::Zero(terms, terms);
+    Eigen::VectorXd Atb = Eigen::VectorXd::Zero(terms);
+    int rows = 0;
+    for (int l = 0; l < obs.lights; ++l) {
+      const size_t i = obs.At(p, l) + ch;
+      if (!in[l] || obs.weight[i] <= 0) continue;
+      const double w2 = double(obs.weight[i]) * obs.weight[i];
+      const Eigen::Map<const Eigen::VectorXd> f(phi[l].data(), terms);
+      AtA.noalias() += w2 * f * f.transpose();
+      Atb += w2 * (obs.value[i] - direct[l][ch]) * f;
+      ++rows;
+    }
+    if (rows < 2 * terms) continue;  // too few photos: no transfer
+    AtA.diagonal().array() += ridge * AtA.diagonal().mean() + 1e-30;
+    c.col(ch) = AtA.ldlt().solve(Atb);
+  }
+  return c;
+}
+
+// Given the residual maps (one per light, 0 where the photo is unusable) and
+// each light's leave-one-out neighbours: lambda per pixel, the
+// leave-one-light-out errors, and (when kept) the maps scaled in place.
+ResidualField FinishResidualField(const PsObservations& obs, std::vector<Image> maps,
+                                  const std::vector<std::array<int, kLightResidualNeighbours>>& nb,
+                                  const std::vector<std::array<double, kLightResidualNeighbours>>& nw,
+                                  const std::vector<int>& count, const DictionaryFitOptions& o, ResidualField out) {
+  const int L = obs.lights, P = obs.P();
+  auto residual = [&](long p, int l, int c) { return double(maps[l].pixels[size_t(obs.pixel[p]) * 3 + c]); };
+  auto interpolated = [&](long p, int l, int c) {
+    double r_hat = 0;
+    for (int k = 0; k < count[l]; ++k) r_hat += nw[l][k] * residual(p, nb[l][k], c);
+    return r_hat;
+  };
+  // Per pixel the weighted least-squares sums for lambda.
+  Image num(obs.width, obs.height, 1), den(obs.width, obs.height, 1);
+  ParallelFor(P, o.threads, [&](long p) {
+    double sn = 0, sd = 0;
+    for (int l = 0; l < L; ++l)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = obs.At(p, l) + c;
+        if (obs.weight[i] <= 0) continue;
+        const double r_hat = interpolated(p, l, c), w2 = double(obs.weight[i]) * obs.weight[i];
+        sn += w2 * residual(p, l, c) * r_hat, sd += w2 * r_hat * r_hat;
+      }
+    num.pixels[obs.pixel[p]] = float(sn), den.pixels[obs.pixel[p]] = float(sd);
+  }, 64);
+  // lambda from the sums pooled over the window (object pixels only: the
+  // others hold zeros).
+  const int r = o.residual_window;
+  out.share = Image(obs.width, obs.height, 1);
+  ParallelFor(P, o.threads, [&](long p) {
+    const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
+    double sn = 0, sd = 0;
+    for (int v = std::max(0, y - r); v <= std::min(obs.height - 1, y + r); ++v)
+      for (int u = std::max(0, x - r); u <= std::min(obs.width - 1, x + r); ++u) sn += num.at(u, v, 0), sd += den.at(u, v, 0);
+    out.share.at(x, y, 0) = sd > 0 ? float(std::clamp(sn / sd, 0.0, 1.0)) : 0.0f;
+  }, 256);
+  std::vector<double> e0(P, 0.0), e1(P, 0.0);
+  ParallelFor(P, o.threads, [&](long p) {
+    const double lambda = out.share.pixels[obs.pixel[p]];
+    for (int l = 0; l < L; ++l)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = obs.At(p, l) + c;
+        if (obs.weight[i] <= 0) continue;
+        const double w = obs.weight[i], r0 = residual(p, l, c), d = r0 - lambda * interpolated(p, l, c);
+        e0[p] += (w * r0) * (w * r0);
+        e1[p] += (w * d) * (w * d);
+      }
+  }, 256);
+  for (long p = 0; p < P; ++p) out.loo_error_without += e0[p], out.loo_error_with += e1[p];
+  out.kept = out.loo_error_with < (1.0 - o.min_gain) * out.loo_error_without;
+  if (!out.kept) return out;
+  ParallelFor(L, o.threads, [&](long l) {
+    for (long p = 0; p < P; ++p) {
+      const float lambda = out.share.pixels[obs.pixel[p]];
+      for (int c = 0; c < 3; ++c) maps[l].pixels[size_t(obs.pixel[p]) * 3 + c] *= lambda;
+    }
+  }, 1);
+  out.maps = std::move(maps);
+  return out;
+}
+
 }  // namespace
 
 TransferFit FitTransfer(const PsObservations& obs, const std::vector<BasisMaterial>& basis,
@@ -54,28 +144,8 @@ TransferFit FitTransfer(const PsObservations& obs, const std::vector<BasisMateri
     const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
     const Vec3 n(normals_cam.at(x, y, 0), normals_cam.at(x, y, 1), normals_cam.at(x, y, 2));
     const std::vector<Rgb> direct = DirectPrediction(obs, basis, weights, n.normalized(), p, shadowed);
-    // Weighted ridge fit of the residuals with the first `terms` terms on
-    // photos with `in`; returns c (terms x 3).
     auto fit = [&](const std::vector<char>& in, int terms) {
-      Eigen::MatrixXd c = Eigen::MatrixXd::Zero(terms, 3);
-      for (int ch = 0; ch < 3; ++ch) {
-        Eigen::MatrixXd AtA = Eigen::MatrixXd::Zero(terms, terms);
-        Eigen::VectorXd Atb = Eigen::VectorXd::Zero(terms);
-        int rows = 0;
-        for (int l = 0; l < obs.lights; ++l) {
-          const size_t i = obs.At(p, l) + ch;
-          if (!in[l] || obs.weight[i] <= 0) continue;
-          const double w2 = double(obs.weight[i]) * obs.weight[i];
-          const Eigen::Map<const Eigen::VectorXd> f(phi[l].data(), terms);
-          AtA.noalias() += w2 * f * f.transpose();
-          Atb += w2 * (obs.value[i] - direct[l][ch]) * f;
-          ++rows;
-        }
-        if (rows < 2 * terms) continue;  // too few photos: no transfer
-        AtA.diagonal().array() += ridge * AtA.diagonal().mean() + 1e-30;
-        c.col(ch) = AtA.ldlt().solve(Atb);
-      }
-      return c;
+      return FitTransferTerms(obs, p, direct, phi, in, terms, ridge);
     };
     for (int f = 0; f < o.folds; ++f) {
       std::vector<char> train(obs.lights);
@@ -119,6 +189,40 @@ TransferFit FitTransfer(const PsObservations& obs, const std::vector<BasisMateri
     out.maps = std::move(maps[chosen]);
   }
   return out;
+}
+
+ResidualField FitResidualField(const PsObservations& obs, const std::vector<BasisMaterial>& basis,
+                               const std::vector<Image>& weights, const std::vector<Image>& transfer_maps,
+                               const Image& normals_cam, const std::vector<uint8_t>& shadowed,
+                               const DictionaryFitOptions& o) {
+  ResidualField out;
+  const int L = obs.lights, P = obs.P(), T = int(transfer_maps.size());
+  const Rigid3 world_from_cam = obs.cam_from_world.Inverse();
+  for (int l = 0; l < L; ++l) out.directions.push_back((world_from_cam.rotation * obs.to_light[l]).normalized());
+  std::vector<std::array<double, kTerms>> phi(L);
+  for (int l = 0; l < L; ++l) LightTransferTerms(out.directions[l], phi[l].data());
+  // Each light's neighbours with the light itself left out.
+  std::vector<std::array<int, kLightResidualNeighbours>> nb(L);
+  std::vector<std::array<double, kLightResidualNeighbours>> nw(L);
+  std::vector<int> count(L);
+  for (int l = 0; l < L; ++l) count[l] = LightResidualNeighbours(out.directions, out.directions[l], l, nb[l].data(), nw[l].data());
+  // Residual maps of direct + transfer, one per light (0 where the photo is
+  // unusable and outside the object).
+  std::vector<Image> res(L, Image(obs.width, obs.height, 3));
+  ParallelFor(P, o.threads, [&](long p) {
+    const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
+    const Vec3 n(normals_cam.at(x, y, 0), normals_cam.at(x, y, 1), normals_cam.at(x, y, 2));
+    const std::vector<Rgb> direct = DirectPrediction(obs, basis, weights, n.normalized(), p, shadowed);
+    for (int l = 0; l < L; ++l)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = obs.At(p, l) + c;
+        if (obs.weight[i] <= 0) continue;
+        double t = 0;
+        for (int k = 0; k < T; ++k) t += phi[l][k] * transfer_maps[k].at(x, y, c);
+        res[l].pixels[size_t(obs.pixel[p]) * 3 + c] = float(obs.value[i] - (direct[l][c] + t));
+      }
+  }, 64);
+  return FinishResidualField(obs, std::move(res), nb, nw, count, o, std::move(out));
 }
 
 }  // namespace svbrdf

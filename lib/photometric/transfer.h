@@ -40,4 +40,30 @@ TransferFit FitTransfer(const PsObservations& obs, const std::vector<BasisMateri
                         const std::vector<Image>& weights, const Image& normals_cam,
                         const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, double ridge = 1e-4);
 
+// What the direct prediction plus the light transfer still leave in the
+// training photos, kept as samples over the light directions and
+// interpolated between the nearest of them for a new light (io/material.h
+// LightResidualNeighbours): per-pixel detail that no smooth function of the
+// light direction holds (a highlight's exact shape and place, a shadow
+// edge), where the photos' lights are dense enough to carry it. Each pixel's
+// residuals are scaled by lambda in [0, 1], the least-squares share of a
+// left-out light's residual that its neighbours' interpolated residuals
+// predict, pooled over a (2 window + 1)^2 pixel window: ~0 where the
+// residuals are noise (interpolating noise only adds it), ~1 where they are
+// structure the model lacks. Kept when that leave-one-light-out error is
+// lower than without by min_gain.
+struct ResidualField {
+  std::vector<Vec3> directions;  // world frame, one per light of `obs`
+  std::vector<Image> maps;       // lambda-scaled residuals (RGB, photo-sized); empty when not kept
+  Image share;                   // lambda per pixel (1 channel)
+  double loo_error_without = 0;  // weighted squared residuals of direct + transfer
+  double loo_error_with = 0;     // ... minus lambda times the left-out light's interpolated residual
+  bool kept = false;
+};
+
+ResidualField FitResidualField(const PsObservations& obs, const std::vector<BasisMaterial>& basis,
+                               const std::vector<Image>& weights, const std::vector<Image>& transfer_maps,
+                               const Image& normals_cam, const std::vector<uint8_t>& shadowed,
+                               const DictionaryFitOptions& o);
+
 }  // namespace svbrdf

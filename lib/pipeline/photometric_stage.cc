@@ -235,6 +235,26 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
     summary["light_transfer"]["cv_error_by_terms"].push_back({{"terms", terms}, {"error", e}});
   material.light_transfer = transfer.maps;
   for (Image& t : material.light_transfer) FillFromNearest(obs.valid, &t);
+  if (target == RenderTarget::kAny && fo.residual_window >= 0) {
+    timer->Start("light residuals");
+    ResidualField residuals = FitResidualField(obs, sel.basis, material.weights, material.light_transfer,
+                                                     normals, shadowed, fo);
+    double share = 0;
+    for (long p = 0; p < obs.P(); ++p) share += residuals.share.pixels[obs.pixel[p]];
+    share /= std::max(1, obs.P());
+    std::fprintf(stderr, "  light residuals interpolated between the %d nearest lights: leave-one-light-out error %.4g "
+                 "-> %.4g (mean carry-over share %.3f): %s\n", kLightResidualNeighbours, residuals.loo_error_without,
+                 residuals.loo_error_with, share, residuals.kept ? "kept" : "not kept");
+    summary["light_residuals"] = {{"loo_error_without", residuals.loo_error_without},
+                                  {"loo_error_with", residuals.loo_error_with},
+                                  {"mean_share", share},
+                                  {"window", fo.residual_window},
+                                  {"kept", residuals.kept}};
+    if (residuals.kept) {
+      material.light_residual_directions = std::move(residuals.directions);
+      material.light_residuals = std::move(residuals.maps);
+    }
+  }
   material.texture_filter = TextureFilter::kNearest;
   const Rigid3 world_from_cam = obs.cam_from_world.Inverse();
   material.normal_map = Image(obs.width, obs.height, 3);
@@ -255,6 +275,7 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
 
   timer->Start("write");
   SaveMaterial(material, job.out_dir);
+  std::vector<Image>().swap(material.light_residuals);  // written; the report reads the folder back
   Image camera_normals(obs.width, obs.height, 3);
   for (int y = 0; y < obs.height; ++y)
     for (int x = 0; x < obs.width; ++x)

@@ -42,10 +42,26 @@ Vec3 MaterialShader::Normal(const Vec2& uv, const Vec3& smooth_normal, const Vec
 
 Rgb MaterialShader::Transfer(const Vec2& uv, const Vec3& to_light) const {
   if (!HasTransfer()) return Rgb::Zero();
-  double phi[kLightTransferMaxTerms];
-  LightTransferTerms(to_light, phi);
   Rgb t = Rgb::Zero();
-  for (size_t k = 0; k < material_.light_transfer.size(); ++k) t += phi[k] * SampleMap(material_.light_transfer[k], uv, material_.texture_filter);
+  if (!material_.light_transfer.empty()) {
+    double phi[kLightTransferMaxTerms];
+    LightTransferTerms(to_light, phi);
+    for (size_t k = 0; k < material_.light_transfer.size(); ++k)
+      t += phi[k] * SampleMap(material_.light_transfer[k], uv, material_.texture_filter);
+  }
+  if (!material_.light_residuals.empty()) {
+    // A distant light has one direction for every pixel: its neighbours are
+    // found once per thread and direction, not per shading point.
+    thread_local const Material* cached_material = nullptr;
+    thread_local Vec3 cached_dir(0, 0, 0);
+    thread_local int index[kLightResidualNeighbours], n = 0;
+    thread_local double weight[kLightResidualNeighbours];
+    if (cached_material != &material_ || cached_dir != to_light) {
+      n = LightResidualNeighbours(material_.light_residual_directions, to_light, -1, index, weight);
+      cached_material = &material_, cached_dir = to_light;
+    }
+    for (int k = 0; k < n; ++k) t += weight[k] * SampleMap(material_.light_residuals[index[k]], uv, material_.texture_filter);
+  }
   return t;
 }
 

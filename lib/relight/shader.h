@@ -19,11 +19,12 @@ class MaterialShader {
   // BRDF value (1/sr per channel) for world directions, given the shading frame.
   Rgb Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const;
 
-  // Light transfer beyond the BRDF (material.light_transfer) for a distant
-  // light in world direction `to_light`: radiance per unit irradiance; zero
-  // when the material has none.
+  // Light transfer beyond the BRDF (material.light_transfer, and the
+  // interpolated material.light_residuals) for a distant light in world
+  // direction `to_light`: radiance per unit irradiance; zero when the
+  // material has neither.
   Rgb Transfer(const Vec2& uv, const Vec3& to_light) const;
-  bool HasTransfer() const { return !material_.light_transfer.empty(); }
+  bool HasTransfer() const { return !material_.light_transfer.empty() || !material_.light_residuals.empty(); }
 
   const Material& material() const { return material_; }
 
