@@ -251,6 +251,8 @@ TEST(Scene, FileErrorsNameTheFile) {
   WriteText(dir / "scene.json", "{\"format\": \"svbrdf-scene/1\",\n \"mesh\": }");
   ExpectError([&] { LoadScene(dir / "scene.json"); }, {dir / "scene.json", "byte"});
   ExpectError([&] { LoadScene(dir / "missing.json"); }, {dir / "missing.json"});
+  // A capture folder given where its scene.json is expected.
+  ExpectError([&] { LoadScene(dir.str()); }, {dir.str(), "is a folder", "did you mean", "scene.json"});
 }
 
 // ---------------------------------------------------------------- meshes

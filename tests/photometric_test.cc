@@ -358,6 +358,45 @@ TEST(Photometric, LambertianNormalsLeaveOutCastShadows) {
 // says so through its misfit; the search under the basis, from the start
 // and from the specular cue, finds the normals; pixels outside `search`
 // keep their start.
+// A glossy dielectric (diffuse plus a GGX lobe): its Lambertian start is
+// biased; the one-lobe search picks a lobe of the dictionary for the object
+// and brings the normals closer, each by at most 5 degrees; pixels outside
+// `where` keep their start.
+TEST(Photometric, OneLobeNormalsTakeOutTheLambertianBias) {
+  const std::vector<BasisMaterial> dict = DictionaryCandidates();
+  BasisMaterial lobe;
+  for (const BasisMaterial& b : dict)
+    if (b.name == "specular_ggx_m0.22") lobe = b;
+  ASSERT_FALSE(lobe.name.empty());
+  std::vector<Vec3> normals;
+  for (int p = 0; p < 40; ++p) normals.push_back(Vec3(0.4 * std::sin(p), 0.35 * std::cos(1.3 * p), -1).normalized());
+  const PsObservations obs = SyntheticObservations(normals, std::vector<Rgb>(40, Rgb(0.4, 0.4, 0.4)), 0.08, lobe);
+  auto angle = [&](const Image& n, int p) {
+    return std::acos(std::min(1.0, Vec3(n.at(p, 0, 0), n.at(p, 0, 1), n.at(p, 0, 2)).normalized().dot(normals[p]))) *
+           180 / kPi;
+  };
+  const Image start = LambertianNormals(obs, {}, 1);
+  DictionaryFitOptions o;
+  o.threads = 1;
+  Image where(40, 1, 1, 1.0f);
+  where.at(5, 0, 0) = 0.0f;
+  std::string chosen;
+  const Image refined = RefineNormalsUnderOneLobe(obs, start, {}, o, where, &chosen);
+  EXPECT_EQ(chosen, lobe.name);
+  double before = 0, after = 0;
+  for (int p = 0; p < 40; ++p) {
+    if (p == 5) continue;
+    before += angle(start, p) / 39, after += angle(refined, p) / 39;
+    const Vec3 a(start.at(p, 0, 0), start.at(p, 0, 1), start.at(p, 0, 2)), b(refined.at(p, 0, 0), refined.at(p, 0, 1),
+                                                                              refined.at(p, 0, 2));
+    EXPECT_LE(std::acos(std::min(1.0, a.normalized().dot(b.normalized()))) * 180 / kPi, 5.0 + 1e-6) << "pixel " << p;
+  }
+  std::printf("one-lobe normals (%s): %.2f -> %.2f deg\n", chosen.c_str(), before, after);
+  EXPECT_GT(before, 1.0);
+  EXPECT_LT(after, 0.35 * before);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(refined.at(5, 0, c), start.at(5, 0, c));
+}
+
 TEST(Photometric, MetalNormalsAreSearchedWhereTheLambertianStartMisfits) {
   const std::vector<BasisMaterial> dict = DictionaryCandidates();
   BasisMaterial lobe;

@@ -26,6 +26,15 @@ void CommitTemp(const std::string& tmp, const std::string& path) {
 }
 
 std::string ReadFileBytes(const std::string& path) {
+  // A folder opens as an empty stream on Linux: say what it is instead of
+  // failing later on "empty" contents.
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    std::string hint;
+    for (const char* name : {"scene.json", "material.json"})
+      if (fs::exists(fs::path(path) / name, ec)) hint = Msg(" (did you mean ", (fs::path(path) / name).string(), "?)");
+    throw Error(Msg(path, ": is a folder, not a file", hint));
+  }
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(Msg(path, ": cannot open for reading"));
   std::ostringstream s;

@@ -111,4 +111,19 @@ void SolveWeights(const PsObservations& obs, const std::vector<BasisMaterial>& b
                   const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, std::vector<Image>* weights,
                   Image* confidence);
 
+// Normals searched per pixel under Lambert plus one specular lobe that the
+// whole object shares, with per-pixel non-negative weights of the two, on
+// each pixel's usable photos outside cast shadows without its darkest
+// quarter (unweighted luminance). The lobe is the dictionary's
+// Cook-Torrance lobe with the lowest total relative residual after the
+// search on pixels spread over `where`. A response sharper than the cosine
+// makes a Lambertian fit tilt near-frontal normals too far and grazing ones
+// too little; one lobe shape for the object takes that out, where a shape
+// free per pixel (several lobes mixed) absorbs the tilt instead. A normal
+// moves at most 5 degrees from its start. Only the pixels where `where`
+// (1 channel) is set move; `chosen` gets the lobe.
+Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_cam,
+                                const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o,
+                                const Image& where, std::string* chosen);
+
 }  // namespace svbrdf

@@ -183,6 +183,24 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
       s = fo.search_misfit == 0 || s > fo.search_misfit ? 1.0f : 0.0f;
       searched += s > 0.5f;
     }
+    if (job.photometric_lobe_normals) {
+      // Where the start fits its photos (not searched below), the normals
+      // under one lobe shape for the object (RefineNormalsUnderOneLobe).
+      timer->Start("one-lobe normals");
+      Image elsewhere(obs.width, obs.height, 1);
+      for (long p = 0; p < obs.P(); ++p)
+        elsewhere.pixels[obs.pixel[p]] = search.pixels[obs.pixel[p]] > 0.5f ? 0.0f : 1.0f;
+      std::string lobe;
+      normals = FillNormals(obs, RefineNormalsUnderOneLobe(obs, normals, shadowed, fo, elsewhere, &lobe));
+      normal_info["one_lobe"] = lobe;
+      if (truth.width) {
+        normal_info["one_lobe_error"] = AngularError(normals, truth, obs.region);
+        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits: normals %.2f deg from the truth\n",
+                     lobe.c_str(), double(normal_info["one_lobe_error"]["mean_deg"]));
+      } else {
+        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits\n", lobe.c_str());
+      }
+    }
     normal_info["searched_pixels"] = job.photometric_normal_rounds > 0 ? searched : 0;
     std::fprintf(stderr, "  Lambertian start misfits its photos (relative RMS > %g) on %ld of %d pixels (%.1f %%)%s\n",
                  fo.search_misfit, searched, obs.P(), 100.0 * searched / std::max(1, obs.P()),

@@ -70,6 +70,10 @@ struct ReconstructionJob {
   // -> height field -> cast shadows -> Lambertian normals without the
   // shadowed photos, before the search (0: the interquartile start alone).
   int photometric_shadow_rounds = 1;
+  // Photometric captures with unknown normals: where the Lambertian start
+  // fits its photos, search the normals under Lambert + one lobe shape for
+  // the object (RefineNormalsUnderOneLobe).
+  bool photometric_lobe_normals = true;
   // Units of model selection's errors: "display" (each photo's pixel values,
   // clamped and sRGB-encoded, as held-out photos are scored; stats.h
   // DisplayScale) or "linear" (reflected radiance per unit light).
