@@ -354,27 +354,35 @@ TEST(Photometric, LambertianNormalsLeaveOutCastShadows) {
   EXPECT_LT(aware, 0.05);
 }
 
-// A metal (a specular lobe, no diffuse): the Lambertian start is far off and
-// says so through its misfit; the search under the basis, from the start
-// and from the specular cue, finds the normals; pixels outside `search`
-// keep their start.
+// The dictionary BRDF called `name`.
+BasisMaterial DictionaryLobe(const std::string& name) {
+  for (const BasisMaterial& b : DictionaryCandidates())
+    if (b.name == name) return b;
+  ADD_FAILURE() << "no dictionary BRDF " << name;
+  return DictionaryCandidates()[0];
+}
+
+// Camera-facing normals that wave over n pixels with amplitudes ax, ay.
+std::vector<Vec3> WavyNormals(int n, double ax, double ay) {
+  std::vector<Vec3> out;
+  for (int p = 0; p < n; ++p) out.push_back(Vec3(ax * std::sin(p), ay * std::cos(1.3 * p), -1).normalized());
+  return out;
+}
+
+// Degrees between pixel p of a 1-row normal image and `truth`.
+double AngleDeg(const Image& n, int p, const Vec3& truth) {
+  return std::acos(std::min(1.0, Vec3(n.at(p, 0, 0), n.at(p, 0, 1), n.at(p, 0, 2)).normalized().dot(truth))) * 180 / kPi;
+}
+
 // A glossy dielectric (diffuse plus a GGX lobe): its Lambertian start is
 // biased; the one-lobe search picks a lobe of the dictionary for the object
 // and brings the normals closer, each by at most 5 degrees; pixels outside
 // `where` keep their start.
 TEST(Photometric, OneLobeNormalsTakeOutTheLambertianBias) {
-  const std::vector<BasisMaterial> dict = DictionaryCandidates();
-  BasisMaterial lobe;
-  for (const BasisMaterial& b : dict)
-    if (b.name == "specular_ggx_m0.22") lobe = b;
-  ASSERT_FALSE(lobe.name.empty());
-  std::vector<Vec3> normals;
-  for (int p = 0; p < 40; ++p) normals.push_back(Vec3(0.4 * std::sin(p), 0.35 * std::cos(1.3 * p), -1).normalized());
+  const BasisMaterial lobe = DictionaryLobe("specular_ggx_m0.22");
+  const std::vector<Vec3> normals = WavyNormals(40, 0.4, 0.35);
   const PsObservations obs = SyntheticObservations(normals, std::vector<Rgb>(40, Rgb(0.4, 0.4, 0.4)), 0.08, lobe);
-  auto angle = [&](const Image& n, int p) {
-    return std::acos(std::min(1.0, Vec3(n.at(p, 0, 0), n.at(p, 0, 1), n.at(p, 0, 2)).normalized().dot(normals[p]))) *
-           180 / kPi;
-  };
+  auto angle = [&](const Image& n, int p) { return AngleDeg(n, p, normals[p]); };
   const Image start = LambertianNormals(obs, {}, 1);
   DictionaryFitOptions o;
   o.threads = 1;
@@ -397,18 +405,15 @@ TEST(Photometric, OneLobeNormalsTakeOutTheLambertianBias) {
   for (int c = 0; c < 3; ++c) EXPECT_EQ(refined.at(5, 0, c), start.at(5, 0, c));
 }
 
+// A metal (a specular lobe, no diffuse): the Lambertian start is far off and
+// says so through its misfit; the search under the basis, from the start
+// and from the specular cue, finds the normals; pixels outside `search`
+// keep their start.
 TEST(Photometric, MetalNormalsAreSearchedWhereTheLambertianStartMisfits) {
   const std::vector<BasisMaterial> dict = DictionaryCandidates();
-  BasisMaterial lobe;
-  for (const BasisMaterial& b : dict)
-    if (b.name == "specular_ggx_m0.14") lobe = b;
-  ASSERT_FALSE(lobe.name.empty());
-  std::vector<Vec3> normals;
-  for (int p = 0; p < 20; ++p) normals.push_back(Vec3(0.25 * std::sin(p), 0.2 * std::cos(1.3 * p), -1).normalized());
-  auto angle = [&](const Image& n, int p) {
-    return std::acos(std::min(1.0, Vec3(n.at(p, 0, 0), n.at(p, 0, 1), n.at(p, 0, 2)).normalized().dot(normals[p]))) *
-           180 / kPi;
-  };
+  const BasisMaterial lobe = DictionaryLobe("specular_ggx_m0.14");
+  const std::vector<Vec3> normals = WavyNormals(20, 0.25, 0.2);
+  auto angle = [&](const Image& n, int p) { return AngleDeg(n, p, normals[p]); };
   Image misfit;
   LambertianNormals(SyntheticObservations(normals, std::vector<Rgb>(20, Rgb(0.5, 0.5, 0.5)), 0.0, lobe), {}, 1, nullptr,
                     &misfit);

@@ -114,6 +114,24 @@ json BasisToJson(const BasisMaterial& b) {
 
 BasisMaterial BasisFromJson(const json& j, const std::string& context) { return BasisFromField(JsonField(j, context)); }
 
+namespace {
+
+// An RGB map of light transfer or residuals (radiance per unit irradiance)
+// named by `file`; errors name that field.
+Image ReadTransferMap(const JsonField& file, const std::string& dir, int width, int height) {
+  const std::string path = (fs::path(dir) / file.As<std::string>()).string();
+  try {
+    Image map = ReadImage(path);
+    CheckMap(map, width, height, 3, path);
+    CheckValues(map, -1e4f, 1e4f, path);
+    return map;
+  } catch (const Error& e) {
+    file.Fail(e.what());
+  }
+}
+
+}  // namespace
+
 int LightResidualNeighbours(const std::vector<Vec3>& dirs, const Vec3& d, int exclude, int* index, double* weight) {
   // The nearest in angle are the largest cosines; a small insertion list.
   double best_cos[kLightResidualNeighbours];
@@ -203,16 +221,7 @@ Material LoadMaterial(const std::string& dir) {
     const std::vector<JsonField> files = root.Items("light_transfer");
     if (!ValidLightTransferTerms(int(files.size())))
       root.FailAt("light_transfer", Msg("expected 4, 9 or 16 maps, got ", files.size()));
-    for (const JsonField& file : files) {
-      const std::string path = (fs::path(dir) / file.As<std::string>()).string();
-      try {
-        m.light_transfer.push_back(ReadImage(path));
-        CheckMap(m.light_transfer.back(), m.width, m.height, 3, path);
-        CheckValues(m.light_transfer.back(), -1e4f, 1e4f, path);
-      } catch (const Error& e) {
-        root.FailAt("light_transfer", e.what());
-      }
-    }
+    for (const JsonField& file : files) m.light_transfer.push_back(ReadTransferMap(file, dir, m.width, m.height));
   }
   if (root.Has("light_residuals")) {
     const JsonField r = root.Member("light_residuals");
@@ -225,16 +234,7 @@ Material LoadMaterial(const std::string& dir) {
       if (!(std::abs(v.norm() - 1.0) < 1e-3)) d.Fail(Msg("expected a unit vector, got length ", v.norm()));
       m.light_residual_directions.push_back(v.normalized());
     }
-    for (const JsonField& file : files) {
-      const std::string path = (fs::path(dir) / file.As<std::string>()).string();
-      try {
-        m.light_residuals.push_back(ReadImage(path));
-        CheckMap(m.light_residuals.back(), m.width, m.height, 3, path);
-        CheckValues(m.light_residuals.back(), -1e4f, 1e4f, path);
-      } catch (const Error& e) {
-        file.Fail(e.what());
-      }
-    }
+    for (const JsonField& file : files) m.light_residuals.push_back(ReadTransferMap(file, dir, m.width, m.height));
   }
   if (root.Has("texture_filter")) {
     const std::string filter = root.Get<std::string>("texture_filter");

@@ -243,6 +243,35 @@ double FoldError(const PsObservations& obs, const GreyBasis& grey, long p, const
   return e;
 }
 
+// Compass search over camera-facing unit normals: the 8 directions around
+// the current normal at steps of 4 degrees, halved down to 0.25 when none
+// scores lower; candidates more than `max_turn` (radians) from `start` are
+// not tried. The lowest score goes to `best` (optional).
+template <class Score>
+Vec3 CompassSearch(const Vec3& start, const Score& score, int max_evaluations, double max_turn, double* best) {
+  const double cos_max_turn = std::cos(std::min(max_turn, kPi));
+  Vec3 n = start;
+  double best_score = score(n);
+  double step = 4.0 * kPi / 180;
+  int evaluations = 0;
+  while (step > 0.25 * kPi / 180 && evaluations < max_evaluations) {
+    const Frame fr = Frame::FromNormal(n);
+    Vec3 best_n = n;
+    for (int k = 0; k < 8; ++k) {
+      const double a = 2 * kPi * k / 8;
+      const Vec3 m = (n + std::tan(step) * (std::cos(a) * fr.t + std::sin(a) * fr.b)).normalized();
+      if (m.z() > -0.02 || m.dot(start) < cos_max_turn) continue;
+      const double e = score(m);
+      ++evaluations;
+      if (e < best_score) best_score = e, best_n = m;
+    }
+    if (best_n == n) step *= 0.5;
+    else n = best_n;
+  }
+  if (best) *best = best_score;
+  return n;
+}
+
 // Pattern search on pixel p's luminance fit (steps of 4 degrees halved down
 // to 0.25) from `start`, on the photos the start's robust fit keeps; the
 // result is kept only if it predicts those photos left out of the fit (light
@@ -264,24 +293,7 @@ Vec3 SearchNormal(const PsObservations& obs, const GreyBasis& grey, long p, cons
     const Rows r = BuildRows(obs, grey, p, m, 1, &use, sh, o, Gates{false, false});
     return SolveRows(r, K, 1, o, false).sse;
   };
-  Vec3 n = start;
-  double best_sse = score(n);
-  double step = 4.0 * kPi / 180;
-  int evaluations = 0;
-  while (step > 0.25 * kPi / 180 && evaluations < 80) {
-    const Frame fr = Frame::FromNormal(n);
-    Vec3 best_n = n;
-    for (int k = 0; k < 8; ++k) {
-      const double a = 2 * kPi * k / 8;
-      const Vec3 m = (n + std::tan(step) * (std::cos(a) * fr.t + std::sin(a) * fr.b)).normalized();
-      if (m.z() > -0.02) continue;
-      const double e = score(m);
-      ++evaluations;
-      if (e < best_sse) best_sse = e, best_n = m;
-    }
-    if (best_n == n) step *= 0.5;
-    else n = best_n;
-  }
+  const Vec3 n = CompassSearch(start, score, 80, kPi, nullptr);
   return FoldError(obs, grey, p, n, &use, sh, o) < FoldError(obs, grey, p, start, &use, sh, o) ? n : start;
 }
 
@@ -358,28 +370,8 @@ double OneLobeSse(const PsObservations& obs, const GreyBasis& two, const LobeRow
 constexpr double kMaxOneLobeTurn = 5.0 * kPi / 180;
 Vec3 OneLobeSearch(const PsObservations& obs, const GreyBasis& two, const LobeRows& r, const Vec3& start,
                    double* sse_out) {
-  const double kCosMaxTurn = std::cos(kMaxOneLobeTurn);
-  Vec3 n = start;
-  double best = OneLobeSse(obs, two, r, n);
-  double step = 4.0 * kPi / 180;
-  int evaluations = 0;
-  while (step > 0.25 * kPi / 180 && evaluations < 120) {
-    const Frame fr = Frame::FromNormal(n);
-    Vec3 best_n = n;
-    for (int k = 0; k < 8; ++k) {
-      const double a = 2 * kPi * k / 8;
-      const Vec3 m = (n + std::tan(step) * (std::cos(a) * fr.t + std::sin(a) * fr.b)).normalized();
-      if (m.z() > -0.02) continue;
-      if (m.dot(start) < kCosMaxTurn) continue;
-      const double e = OneLobeSse(obs, two, r, m);
-      ++evaluations;
-      if (e < best) best = e, best_n = m;
-    }
-    if (best_n == n) step *= 0.5;
-    else n = best_n;
-  }
-  if (sse_out) *sse_out = best;
-  return n;
+  return CompassSearch(start, [&](const Vec3& m) { return OneLobeSse(obs, two, r, m); }, 120, kMaxOneLobeTurn,
+                       sse_out);
 }
 
 }  // namespace
