@@ -183,24 +183,6 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
       s = fo.search_misfit == 0 || s > fo.search_misfit ? 1.0f : 0.0f;
       searched += s > 0.5f;
     }
-    if (job.photometric_lobe_normals) {
-      // Where the start fits its photos (not searched below), the normals
-      // under one lobe shape for the object (RefineNormalsUnderOneLobe).
-      timer->Start("one-lobe normals");
-      Image elsewhere(obs.width, obs.height, 1);
-      for (long p = 0; p < obs.P(); ++p)
-        elsewhere.pixels[obs.pixel[p]] = search.pixels[obs.pixel[p]] > 0.5f ? 0.0f : 1.0f;
-      std::string lobe;
-      normals = FillNormals(obs, RefineNormalsUnderOneLobe(obs, normals, shadowed, fo, elsewhere, &lobe));
-      normal_info["one_lobe"] = lobe;
-      if (truth.width) {
-        normal_info["one_lobe_error"] = AngularError(normals, truth, obs.region);
-        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits: normals %.2f deg from the truth\n",
-                     lobe.c_str(), double(normal_info["one_lobe_error"]["mean_deg"]));
-      } else {
-        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits\n", lobe.c_str());
-      }
-    }
     normal_info["searched_pixels"] = job.photometric_normal_rounds > 0 ? searched : 0;
     std::fprintf(stderr, "  Lambertian start misfits its photos (relative RMS > %g) on %ld of %d pixels (%.1f %%)%s\n",
                  fo.search_misfit, searched, obs.P(), 100.0 * searched / std::max(1, obs.P()),
@@ -216,6 +198,26 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
         normal_info["rounds"].push_back(AngularError(normals, truth, obs.region));
         std::fprintf(stderr, "  round %d: %zu basis BRDFs, normals %.2f deg from the truth\n", round + 1,
                      sel.basis.size(), double(normal_info["rounds"].back()["mean_deg"]));
+      }
+    }
+    if (job.photometric_lobe_normals) {
+      // Where the start fits its photos (the pixels the search above left
+      // alone), the normals under one lobe shape for the object
+      // (RefineNormalsUnderOneLobe). After the search, so that the metals'
+      // search starts from the Lambertian start's height field.
+      timer->Start("one-lobe normals");
+      Image elsewhere(obs.width, obs.height, 1);
+      for (long p = 0; p < obs.P(); ++p)
+        elsewhere.pixels[obs.pixel[p]] = search.pixels[obs.pixel[p]] > 0.5f ? 0.0f : 1.0f;
+      std::string lobe;
+      normals = FillNormals(obs, RefineNormalsUnderOneLobe(obs, normals, shadowed, fo, elsewhere, &lobe));
+      normal_info["one_lobe"] = lobe;
+      if (truth.width) {
+        normal_info["one_lobe_error"] = AngularError(normals, truth, obs.region);
+        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits: normals %.2f deg from the truth\n",
+                     lobe.c_str(), double(normal_info["one_lobe_error"]["mean_deg"]));
+      } else {
+        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits\n", lobe.c_str());
       }
     }
     timer->Start("height field + shadows");
