@@ -128,6 +128,27 @@ TEST(Relight, TransferAddsTheInterpolatedLightResiduals) {
   EXPECT_EQ(shader.Transfer(Vec2(0.25, 0.5), Vec3(0, 0, 1))[0], 0.0);
 }
 
+// Shaders made one after another (here likely at the same address, for
+// the same light) each interpolate their own material's residual samples:
+// the per-thread neighbour cache must not serve one the other's.
+TEST(Relight, LightResidualNeighboursAreNotSharedBetweenShaders) {
+  const Vec3 d(0, 0, 1);
+  for (int round = 0; round < 3; ++round) {
+    Material mat;
+    mat.width = 1, mat.height = 1;
+    mat.texture_filter = TextureFilter::kNearest;
+    const int samples = round == 1 ? 1 : 4;
+    for (int k = 0; k < samples; ++k) {
+      const double a = 0.1 * (k + 1) * (round + 1);
+      mat.light_residual_directions.push_back(Vec3(std::sin(a), 0, std::cos(a)));
+      mat.light_residuals.push_back(Image(1, 1, 3, float(round + 1)));
+    }
+    const MaterialShader shader(mat);
+    // Every sample holds round + 1, so any weights give it back.
+    EXPECT_NEAR(shader.Transfer(Vec2(0.5, 0.5), d)[0], round + 1.0, 1e-6) << "round " << round;
+  }
+}
+
 TEST(Relight, LambertianSphereMatchesClosedForm) {
   const double rd = 0.6, intensity = 5.0;
   const Mesh mesh = Sphere(kRadius, Vec3::Zero());

@@ -1,6 +1,7 @@
 #include "relight/shader.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "atlas/atlas.h"
@@ -23,9 +24,14 @@ Rgb SampleMap(const Image& map, const Vec2& uv, TextureFilter filter) {
   return out;
 }
 
+uint64_t NextShaderId() {
+  static std::atomic<uint64_t> next{1};
+  return next++;
+}
+
 }  // namespace
 
-MaterialShader::MaterialShader(const Material& material) : material_(material) {}
+MaterialShader::MaterialShader(const Material& material) : material_(material), id_(NextShaderId()) {}
 
 void MaterialShader::Weights(const Vec2& uv, std::vector<Rgb>* w) const {
   w->resize(material_.basis.size());
@@ -51,14 +57,14 @@ Rgb MaterialShader::Transfer(const Vec2& uv, const Vec3& to_light) const {
   }
   if (!material_.light_residuals.empty()) {
     // A distant light has one direction for every pixel: its neighbours are
-    // found once per thread and direction, not per shading point.
-    thread_local const Material* cached_material = nullptr;
+    // found once per thread, shader and direction, not per shading point.
+    thread_local uint64_t cached_shader = 0;
     thread_local Vec3 cached_dir(0, 0, 0);
     thread_local int index[kLightResidualNeighbours], n = 0;
     thread_local double weight[kLightResidualNeighbours];
-    if (cached_material != &material_ || cached_dir != to_light) {
+    if (cached_shader != id_ || cached_dir != to_light) {
       n = LightResidualNeighbours(material_.light_residual_directions, to_light, -1, index, weight);
-      cached_material = &material_, cached_dir = to_light;
+      cached_shader = id_, cached_dir = to_light;
     }
     for (int k = 0; k < n; ++k) t += weight[k] * SampleMap(material_.light_residuals[index[k]], uv, material_.texture_filter);
   }

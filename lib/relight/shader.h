@@ -2,6 +2,8 @@
 // per-channel weighted sum of the basis materials, with weights bilinearly
 // interpolated from the material's weight maps at the hit's texture coordinate.
 #pragma once
+#include <cstdint>
+
 #include "io/material.h"
 
 namespace svbrdf {
@@ -30,6 +32,9 @@ class MaterialShader {
 
  private:
   const Material& material_;
+  // Distinct for every shader ever made: keys the per-thread cache of
+  // residual neighbours (a material's address can be reused by the next).
+  const uint64_t id_;
 };
 
 }  // namespace svbrdf
