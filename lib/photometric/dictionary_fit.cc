@@ -587,18 +587,19 @@ Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_
   const size_t stride = std::max<size_t>(1, subset.size() / std::max(1, o.selection_pixels / 4));
   std::vector<long> probe;
   for (size_t k = stride / 2; k < subset.size(); k += stride) probe.push_back(subset[k]);
+  std::vector<LobeRows> probe_rows(probe.size());
+  for (size_t k = 0; k < probe.size(); ++k) probe_rows[k] = OneLobeRows(obs, probe[k], ShadowRow(shadowed, probe[k], obs.lights));
   std::vector<double> total(lobes.size(), 0.0);
   for (size_t j = 0; j < lobes.size(); ++j) {
     const std::vector<BasisMaterial> pair = {dict[0], lobes[j]};
     const GreyBasis two(pair);
     std::vector<double> rel(probe.size(), 0.0);
     ParallelFor(long(probe.size()), o.threads, [&](long k) {
-      const long p = probe[k];
-      const LobeRows r = OneLobeRows(obs, p, ShadowRow(shadowed, p, obs.lights));
+      const LobeRows& r = probe_rows[k];
       if (r.light.size() < 8) return;
       double yy = 0, sse = 0;
       for (double v : r.value) yy += v * v;
-      OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[p], obs.width), &sse);
+      OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[probe[k]], obs.width), &sse);
       rel[k] = yy > 0 ? sse / yy : 0.0;
     }, 16);
     for (double e : rel) total[j] += e;
