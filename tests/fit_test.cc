@@ -152,6 +152,39 @@ TEST(Fit, FootprintSubsamplesRecoverAGlossyCoatThatTheCentreNormalBlurs) {
   EXPECT_GT(centre.params[3], 0.105) << "the spread of normals should read as a rougher coat";
 }
 
+// The batched prediction (one model unpacked per batch) is PredictSample's
+// sample by sample, bitwise, for every family, with and without the
+// footprint's sub-samples, over a range and over a list of ids.
+TEST(Fit, BatchedPredictionsAreThePerSampleOnesBitwise) {
+  for (const char* label : {"lambert", "lafortune-2", "cook_torrance-beckmann", "conductor-ggx", "coated-ggx", "gltf"}) {
+    const ModelSpec spec = ModelSpec::FromLabel(label);
+    const std::vector<double> params = spec.InitialParams();
+    SampleSet set = SynthesizeSamples(spec, params, Synth(700));
+    for (bool footprint : {false, true}) {
+      constexpr int kSub = SampleSet::kFootprintSubsamples;
+      if (footprint) {
+        set.footprint.resize(size_t(set.size()) * 3 * kSub);
+        for (int64_t s = 0; s < set.size(); ++s)
+          for (int j = 0; j < kSub; ++j) {
+            float* fp = &set.footprint[(size_t(s) * kSub + j) * 3];
+            fp[0] = float(0.05 * std::sin(0.7 * s + j)), fp[1] = float(0.05 * std::cos(1.3 * s - j));
+            fp[2] = (s + j) % 5 == 0 ? 0.0f : 0.25f;  // some sub-samples unused
+          }
+      }
+      std::vector<Rgb> range(set.size() - 3);
+      PredictSamples(spec, params.data(), set, nullptr, 3, int64_t(range.size()), range.data());
+      const std::vector<int64_t> ids = {5, 0, 699, 300, 300, 17};
+      std::vector<Rgb> listed(ids.size());
+      PredictSamples(spec, params.data(), set, ids.data(), 0, int64_t(ids.size()), listed.data());
+      for (size_t i = 0; i < range.size(); ++i)
+        ASSERT_TRUE((range[i] == PredictSample(spec, params.data(), set, int64_t(i) + 3)).all())
+            << label << (footprint ? " with footprint" : "") << ", sample " << i + 3;
+      for (size_t i = 0; i < ids.size(); ++i)
+        ASSERT_TRUE((listed[i] == PredictSample(spec, params.data(), set, ids[i])).all()) << label << ", id " << ids[i];
+    }
+  }
+}
+
 double MaxRelativeError(const std::vector<double>& a, const std::vector<double>& truth) {
   double worst = 0;
   for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - truth[i]) / std::abs(truth[i]));

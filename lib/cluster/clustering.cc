@@ -74,7 +74,11 @@ void Clustering::SetBasis(int k, const BasisMaterial& b) {
     basis_.push_back(b);
     pred_.emplace_back();
   } else {
+    // Restoring a search state sets every basis again; the ones it did not
+    // change keep their predictions (a prediction visits every sample).
+    const bool same = basis_[k].spec == b.spec && basis_[k].params == b.params && !pred_[k].empty();
     basis_[k] = b;
+    if (same) return;
   }
   pred_[k] = Predict(b);
 }
@@ -268,10 +272,14 @@ double Clustering::ClusterSse(int k) const {
 
 std::vector<float> Clustering::Predict(const BasisMaterial& b) const {
   std::vector<float> p(3 * size_t(s_.size()));
-  ParallelFor(s_.size(), o_.threads, [&](long i) {
-    const Rgb f = PredictSample(b.spec, b.params.data(), s_, i);
-    for (int c = 0; c < 3; ++c) p[3 * i + c] = float(f[c]);
-  }, 4096);
+  constexpr int64_t kChunk = 4096;
+  ParallelFor((s_.size() + kChunk - 1) / kChunk, o_.threads, [&](long k) {
+    const int64_t first = k * kChunk, n = std::min<int64_t>(kChunk, s_.size() - first);
+    std::vector<Rgb> f(n);
+    PredictSamples(b.spec, b.params.data(), s_, nullptr, first, n, f.data());
+    for (int64_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) p[3 * (first + i) + c] = float(f[i][c]);
+  });
   return p;
 }
 

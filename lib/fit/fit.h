@@ -85,5 +85,10 @@ inline double SampleBrightness(const SampleSet& samples, int64_t s) {
 
 // Model prediction for one sample (f * geom per channel).
 Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& samples, int64_t s);
+// PredictSample for n samples, bitwise the same, several times faster (the
+// model is unpacked once per batch): sample ids[i], or first + i when ids is
+// null, into out[i].
+void PredictSamples(const ModelSpec& spec, const double* params, const SampleSet& samples, const int64_t* ids,
+                    int64_t first, int64_t n, Rgb* out);
 
 }  // namespace svbrdf
