@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 
+#include "brdf/fresnel.h"
 #include "core/error.h"
 #include "core/rng.h"
 #include "io/scene.h"
@@ -190,8 +191,10 @@ TEST(Photometric, FillNormalsSmoothlyBridgesAHole) {
   EXPECT_FALSE(FillNormalsSmoothly(Image(w, h, 1), region, &normals));  // nothing known
 }
 
+// diffuse_eta > 1: the diffuse is a body under a smooth interface of that
+// index, (1 - F(cos_i)) (1 - F(cos_o)) times Lambert's.
 PsObservations SyntheticObservations(const std::vector<Vec3>& normals, const std::vector<Rgb>& diffuse, double specular,
-                                     const BasisMaterial& lobe) {
+                                     const BasisMaterial& lobe, double diffuse_eta = 1.0) {
   PsObservations o;
   o.cam = Ortho(int(normals.size()), 1, 1000);
   o.width = int(normals.size()), o.height = 1;
@@ -213,8 +216,11 @@ PsObservations SyntheticObservations(const std::vector<Vec3>& normals, const std
     for (int l = 0; l < o.lights; ++l) {
       const Vec3 wi = fr.ToLocal(o.to_light[l]), wo = fr.ToLocal(o.to_viewer);
       const double spec = wi.z() > 0 ? EvalModelD(lobe.spec, lobe.params.data(), wi, wo)[0] : 0.0;
+      const double through = diffuse_eta > 1 && wi.z() > 0 ? (1 - brdf::FresnelDielectric(wi.z(), diffuse_eta)) *
+                                                                  (1 - brdf::FresnelDielectric(wo.z(), diffuse_eta))
+                                                            : 1.0;
       for (int c = 0; c < 3; ++c)
-        o.value[o.At(p, l) + c] = float(std::max(0.0, wi.z()) * (diffuse[p][c] / kPi + specular * spec));
+        o.value[o.At(p, l) + c] = float(std::max(0.0, wi.z()) * (diffuse[p][c] * through / kPi + specular * spec));
     }
   }
   return o;
@@ -403,6 +409,39 @@ TEST(Photometric, OneLobeNormalsTakeOutTheLambertianBias) {
   EXPECT_GT(before, 1.0);
   EXPECT_LT(after, 0.35 * before);
   for (int c = 0; c < 3; ++c) EXPECT_EQ(refined.at(5, 0, c), start.at(5, 0, c));
+}
+
+// A plastic: its diffuse enters and leaves through the surface, so it falls
+// faster than the cosine towards grazing light (1 - F both ways). The search
+// picks that diffuse over Lambert with the lobe, and ends closer to the
+// truth than the search held to Lambert does.
+TEST(Photometric, OneLobeNormalsSeeTheDiffuseThroughTheSurface) {
+  const BasisMaterial lobe = DictionaryLobe("specular_ggx_m0.22");
+  const std::vector<Vec3> normals = WavyNormals(40, 0.5, 0.45);
+  const PsObservations obs = SyntheticObservations(normals, std::vector<Rgb>(40, Rgb(0.5, 0.5, 0.5)), 0.04, lobe, 2.0);
+  const Image start = LambertianNormals(obs, {}, 1);
+  DictionaryFitOptions o;
+  o.threads = 1;
+  const Image where(40, 1, 1, 1.0f);
+  std::string chosen;
+  const Image refined = RefineNormalsUnderOneLobe(obs, start, {}, o, where, &chosen);
+  EXPECT_EQ(chosen, lobe.name + ", diffuse under an interface of index 2");
+  // The same search with Lambert's diffuse only: a model that lacks the
+  // falloff (the option that keeps Lambert: no Fresnel pairing allowed).
+  DictionaryFitOptions lambert_only = o;
+  lambert_only.one_lobe_diffuse_etas = {1.0};
+  std::string chosen_lambert;
+  const Image lambert = RefineNormalsUnderOneLobe(obs, start, {}, lambert_only, where, &chosen_lambert);
+  double before = 0, with_lambert = 0, after = 0;
+  for (int p = 0; p < 40; ++p) {
+    before += AngleDeg(start, p, normals[p]) / 40;
+    with_lambert += AngleDeg(lambert, p, normals[p]) / 40;
+    after += AngleDeg(refined, p, normals[p]) / 40;
+  }
+  std::printf("diffuse through the surface: start %.3f deg, Lambert + %s %.3f deg, %s %.3f deg\n", before,
+              chosen_lambert.c_str(), with_lambert, chosen.c_str(), after);
+  EXPECT_LT(after, 0.7 * with_lambert);
+  EXPECT_LT(after, 0.3 * before);
 }
 
 // A metal (a specular lobe, no diffuse): the Lambertian start is far off and

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "brdf/cook_torrance.h"
+#include "brdf/fresnel.h"
 #include "brdf/model.h"
 #include "brdf/oren_nayar.h"
 #include "cluster/nnls.h"
@@ -38,12 +39,25 @@ void SetRgb(BasisMaterial* b, const std::string& prefix, double v) {
   for (const char* c : {"_r", "_g", "_b"}) SetParam(b, prefix + c, v);
 }
 
+// Light that enters a dielectric body through its smooth surface, scatters
+// diffusely inside and leaves again is weighted by the interface's
+// transmittance both ways: (1 - F(cos_i; eta)) (1 - F(cos_o; eta)), which
+// falls towards grazing incidence (a plastic, glaze or paint's diffuse is
+// darker there than Lambert's). eta <= 1: plain Lambert (factor 1).
+double DiffuseThroughInterface(double cos_i, double cos_o, double eta) {
+  if (!(eta > 1.0)) return 1.0;
+  return (1.0 - brdf::FresnelDielectric(cos_i, eta)) * (1.0 - brdf::FresnelDielectric(cos_o, eta));
+}
+
 // The basis BRDFs here are grey (one value for every channel): evaluated
 // directly from the model headers, without the per-call parameter unpacking
 // of EvalModelD, since the normal search evaluates them millions of times.
 class GreyBasis {
  public:
-  explicit GreyBasis(const std::vector<BasisMaterial>& basis) : basis_(basis) {
+  // diffuse_eta > 1: Lambert atoms are a diffuse body under a smooth
+  // interface of that index (DiffuseThroughInterface).
+  explicit GreyBasis(const std::vector<BasisMaterial>& basis, double diffuse_eta = 1.0)
+      : basis_(basis), diffuse_eta_(diffuse_eta) {
     for (const BasisMaterial& b : basis) {
       Lobe l;
       l.family = b.spec.family;
@@ -77,7 +91,7 @@ class GreyBasis {
       const Lobe& l = lobes_[k];
       double f;
       switch (l.family) {
-        case Family::kLambert: f = l.rd / kPi; break;
+        case Family::kLambert: f = l.rd / kPi * DiffuseThroughInterface(wi.z(), wo.z(), diffuse_eta_); break;
         case Family::kOrenNayar: f = l.on.f(wi, wo)[0]; break;
         case Family::kCookTorrance: f = l.ct.f(wi, wo)[0]; break;
         default: f = EvalModelD(basis_[k].spec, basis_[k].params.data(), wi, wo)[0]; break;
@@ -94,6 +108,7 @@ class GreyBasis {
     brdf::CookTorrance<double> ct;
   };
   const std::vector<BasisMaterial>& basis_;
+  double diffuse_eta_ = 1.0;
   std::vector<Lobe> lobes_;
 };
 
@@ -369,10 +384,13 @@ double OneLobeSse(const PsObservations& obs, const GreyBasis& two, const LobeRow
 // pot1 from 7.4 to 8.8 degrees.
 constexpr double kMaxOneLobeTurn = 5.0 * kPi / 180;
 Vec3 OneLobeSearch(const PsObservations& obs, const GreyBasis& two, const LobeRows& r, const Vec3& start,
-                   double* sse_out) {
-  return CompassSearch(start, [&](const Vec3& m) { return OneLobeSse(obs, two, r, m); }, 120, kMaxOneLobeTurn,
-                       sse_out);
+                   double* sse_out, double max_turn = kMaxOneLobeTurn) {
+  return CompassSearch(start, [&](const Vec3& m) { return OneLobeSse(obs, two, r, m); }, 120, max_turn, sse_out);
 }
+// The model choice's searches go further: held to the bound, a pixel whose
+// start is off by more cannot reach the true model's fit, and a wrong
+// model that bends towards the start's error wins the choice.
+constexpr double kOneLobeChoiceTurn = 15.0 * kPi / 180;
 
 }  // namespace
 
@@ -416,6 +434,10 @@ void DictionaryFitOptions::Check() const {
   if (!(min_cos >= 0 && min_cos <= 0.5)) throw Error(Msg("photometric: min_cos must be in [0, 0.5], got ", min_cos));
   if (residual_window < -1 || residual_window > 10)
     throw Error(Msg("photometric: residual_window must be in [-1, 10], got ", residual_window));
+  if (one_lobe_diffuse_etas.empty()) throw Error("photometric: one_lobe_diffuse_etas is empty");
+  for (double eta : one_lobe_diffuse_etas)
+    if (!(eta >= 1 && eta <= 3))
+      throw Error(Msg("photometric: one_lobe_diffuse_etas must each be in [1, 3], got ", eta));
 }
 
 PixelSolve SolvePixel(const PsObservations& obs, const std::vector<BasisMaterial>& basis, long p, const Vec3& n,
@@ -589,25 +611,36 @@ Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_
   for (size_t k = stride / 2; k < subset.size(); k += stride) probe.push_back(subset[k]);
   std::vector<LobeRows> probe_rows(probe.size());
   for (size_t k = 0; k < probe.size(); ++k) probe_rows[k] = OneLobeRows(obs, probe[k], ShadowRow(shadowed, probe[k], obs.lights));
-  std::vector<double> total(lobes.size(), 0.0);
-  for (size_t j = 0; j < lobes.size(); ++j) {
-    const std::vector<BasisMaterial> pair = {dict[0], lobes[j]};
-    const GreyBasis two(pair);
+  // Candidates: every lobe with each diffuse (Lambert, or a body under an
+  // interface of index `one_lobe_diffuse_etas`: DiffuseThroughInterface).
+  struct Pairing {
+    size_t lobe;
+    double eta;
+  };
+  std::vector<Pairing> pairings;
+  for (double eta : o.one_lobe_diffuse_etas)
+    for (size_t j = 0; j < lobes.size(); ++j) pairings.push_back({j, eta});
+  std::vector<double> total(pairings.size(), 0.0);
+  for (size_t j = 0; j < pairings.size(); ++j) {
+    const std::vector<BasisMaterial> pair = {dict[0], lobes[pairings[j].lobe]};
+    const GreyBasis two(pair, pairings[j].eta);
     std::vector<double> rel(probe.size(), 0.0);
     ParallelFor(long(probe.size()), o.threads, [&](long k) {
       const LobeRows& r = probe_rows[k];
       if (r.light.size() < 8) return;
       double yy = 0, sse = 0;
       for (double v : r.value) yy += v * v;
-      OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[probe[k]], obs.width), &sse);
+      OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[probe[k]], obs.width), &sse, kOneLobeChoiceTurn);
       rel[k] = yy > 0 ? sse / yy : 0.0;
     }, 16);
     for (double e : rel) total[j] += e;
   }
-  const size_t best = size_t(std::min_element(total.begin(), total.end()) - total.begin());
-  if (chosen) *chosen = lobes[best].name;
-  const std::vector<BasisMaterial> pair = {dict[0], lobes[best]};
-  const GreyBasis two(pair);
+  const Pairing best = pairings[size_t(std::min_element(total.begin(), total.end()) - total.begin())];
+  if (chosen)
+    *chosen = best.eta > 1 ? Msg(lobes[best.lobe].name, ", diffuse under an interface of index ", best.eta)
+                           : lobes[best.lobe].name;
+  const std::vector<BasisMaterial> pair = {dict[0], lobes[best.lobe]};
+  const GreyBasis two(pair, best.eta);
   Progress bar("one-lobe normals", long(subset.size()), true);
   ParallelFor(long(subset.size()), o.threads, [&](long k) {
     const long p = subset[k];

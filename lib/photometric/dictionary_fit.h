@@ -50,6 +50,10 @@ std::vector<BasisMaterial> DictionaryCandidates();
 //                       lobe-dominated paint); elsewhere the Lambertian
 //                       start is kept, which the search's BRDF bias would
 //                       only move away from a scan's normals (0 = all)     >= 0
+//   one_lobe_diffuse_etas  the one-lobe normal search's diffuse candidates:
+//                       a body under a smooth interface of each index
+//                       (1 - F both ways; 1 = Lambert), each paired with
+//                       every lobe, chosen by residual                     each in [1, 3]
 struct DictionaryFitOptions {
   int folds = 5;
   int selection_pixels = 2000;
@@ -59,6 +63,8 @@ struct DictionaryFitOptions {
   double min_cos = 0.05;
   double prior_rows = 0.0;
   double search_misfit = 0.15;
+  // Plastics, glazes and paint binders (1.5) to dense coatings (2).
+  std::vector<double> one_lobe_diffuse_etas = {1.0, 1.5, 2.0};
   double srgb_weight_exponent = 0.5;  // see PsObservations::weight
   // Light residuals (transfer.h FitResidualField): pixels pooled for each
   // pixel's carry-over share, (2 r + 1)^2 of them; -1 = none fitted.    [-1, 10]
@@ -111,17 +117,19 @@ void SolveWeights(const PsObservations& obs, const std::vector<BasisMaterial>& b
                   const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o, std::vector<Image>* weights,
                   Image* confidence);
 
-// Normals searched per pixel under Lambert plus one specular lobe that the
-// whole object shares, with per-pixel non-negative weights of the two, on
-// each pixel's usable photos outside cast shadows without its darkest
-// quarter (unweighted luminance). The lobe is the dictionary's
-// Cook-Torrance lobe with the lowest total relative residual after the
-// search on pixels spread over `where`. A response sharper than the cosine
-// makes a Lambertian fit tilt near-frontal normals too far and grazing ones
-// too little; one lobe shape for the object takes that out, where a shape
-// free per pixel (several lobes mixed) absorbs the tilt instead. A normal
-// moves at most 5 degrees from its start. Only the pixels where `where`
-// (1 channel) is set move; `chosen` gets the lobe.
+// Normals searched per pixel under a diffuse term plus one specular lobe
+// that the whole object shares, with per-pixel non-negative weights of the
+// two, on each pixel's usable photos outside cast shadows without its
+// darkest quarter (unweighted luminance). The pair is the dictionary's
+// Cook-Torrance lobe and the diffuse (Lambert, or a body under a smooth
+// interface: `one_lobe_diffuse_etas`) with the lowest total relative
+// residual after the search on pixels spread over `where` (searched up to
+// 15 degrees for the choice). A response sharper than the cosine makes a
+// Lambertian fit tilt near-frontal normals too far and grazing ones too
+// little; one shape for the object takes that out, where a shape free per
+// pixel (several lobes mixed) absorbs the tilt instead. A normal moves at
+// most 5 degrees from its start. Only the pixels where `where` (1 channel)
+// is set move; `chosen` gets the pair.
 Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_cam,
                                 const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o,
                                 const Image& where, std::string* chosen);

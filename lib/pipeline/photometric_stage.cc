@@ -214,10 +214,10 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
       normal_info["one_lobe"] = lobe;
       if (truth.width) {
         normal_info["one_lobe_error"] = AngularError(normals, truth, obs.region);
-        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits: normals %.2f deg from the truth\n",
+        std::fprintf(stderr, "  one-lobe normals (diffuse + %s) where the start fits: normals %.2f deg from the truth\n",
                      lobe.c_str(), double(normal_info["one_lobe_error"]["mean_deg"]));
       } else {
-        std::fprintf(stderr, "  one-lobe normals (Lambert + %s) where the start fits\n", lobe.c_str());
+        std::fprintf(stderr, "  one-lobe normals (diffuse + %s) where the start fits\n", lobe.c_str());
       }
     }
     timer->Start("height field + shadows");
