@@ -190,6 +190,21 @@ size_t ChooseModelOnBoth(const std::vector<ModelCandidate>& folds, const std::ve
   return chosen;
 }
 
+namespace {
+
+// One cluster's model choice in progress (SelectModels).
+struct Selection {
+  int k = 0;
+  std::vector<int64_t> hold, train, all;
+  DisplayScale display;
+  double signal = 0, cv_signal = 0;
+  std::vector<int> fold;
+  std::vector<Tried> tried;
+  std::vector<size_t> finalists;
+};
+
+}  // namespace
+
 void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, double first_cluster_seconds) {
   const ReconstructOptions& o = cl.options();
   const SampleSet& samples = cl.samples();
@@ -201,50 +216,68 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
   for (int a : cl.assign())
     if (a >= 0 && a < cl.K()) texels[a]++;
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return texels[a] > texels[b]; });
-  double longest = -1;  // the longest selection measured so far
+  double longest = -1;  // the longest selection measured so far (per cluster)
   const size_t choices_before = est.model_choices.size();
-  for (const int k : order) {
+  // Clusters are chosen independently (each reads only its own samples and
+  // basis), so all of them are fitted together when the time allows: their
+  // fits are one pool of independent tasks, which keeps both threads busy
+  // where one cluster's three finalists would leave one idle. Under a time
+  // budget that does not cover them all, one cluster at a time, largest
+  // first, as long as the time left covers the longest one so far.
+  for (size_t next = 0; next < order.size();) {
     const double predicted = longest >= 0 ? longest : first_cluster_seconds;
-    if (o.SecondsLeft() <= predicted) {
+    const size_t remaining = order.size() - next;
+    const size_t wave = o.SecondsLeft() > predicted * double(remaining) ? remaining : 1;
+    if (wave == 1 && o.SecondsLeft() <= predicted) {
+      const int k = order[next++];
       est.cut_by_deadline.push_back(Msg("model selection of cluster ", k));
       log(Msg("time budget: cluster ", k, " keeps its clustering model ", cl.basis()[k].spec.Label(), " (",
               o.SecondsLeft(), " s left, a selection takes about ", predicted, " s)"));
       continue;
     }
-    const auto cluster_start = std::chrono::steady_clock::now();
-    std::vector<int64_t> hold = cl.Ids(k, true), train = cl.Ids(k, false);
-    if (candidates.size() > 1) ValidationSamples(cl, k, &train, &hold);
-    std::vector<int64_t> all = cl.Ids(k, false), held_k = cl.Ids(k, true);
-    all.insert(all.end(), held_k.begin(), held_k.end());
-    const double clipped = ClippedShare(samples, all, o.display_scale);
-    const bool linear = clipped > kMaxClippedShare;
-    if (linear)
-      log(Msg("cluster ", k, ": ", 100 * clipped, " % of its samples are white in the photos; model errors in linear units"));
-    const DisplayScale display = linear ? DisplayScale() : o.display_scale;
-    const double signal = SignalRms(samples, hold, display);
+    const auto wave_start = std::chrono::steady_clock::now();
+    std::vector<Selection> sel(wave);
+    for (size_t w = 0; w < wave; ++w) {
+      Selection& c = sel[w];
+      const int k = c.k = order[next + w];
+      c.hold = cl.Ids(k, true), c.train = cl.Ids(k, false);
+      if (candidates.size() > 1) ValidationSamples(cl, k, &c.train, &c.hold);
+      c.all = cl.Ids(k, false);
+      const std::vector<int64_t> held_k = cl.Ids(k, true);
+      c.all.insert(c.all.end(), held_k.begin(), held_k.end());
+      const double clipped = ClippedShare(samples, c.all, o.display_scale);
+      const bool linear = clipped > kMaxClippedShare;
+      if (linear)
+        log(Msg("cluster ", k, ": ", 100 * clipped, " % of its samples are white in the photos; model errors in linear units"));
+      c.display = linear ? DisplayScale() : o.display_scale;
+      c.signal = SignalRms(samples, c.hold, c.display);
+      c.tried.resize(candidates.size());
+    }
+    next += wave;
     // Candidates are independent small fits: one per thread pays better than
     // threads inside each Ceres solve. Two rounds: every candidate is screened
     // by a least-squares fit on a small random subset (its held-out error
     // ranks it within a few percent); only the finalists get the full robust
     // fit, warm-started from their screening fit, and decide.
-    std::vector<Tried> tried(candidates.size());
-    ParallelFor(long(candidates.size()), o.threads, [&](long j) {
+    ParallelFor(long(wave * candidates.size()), o.threads, [&](long task) {
+      Selection& c = sel[size_t(task) / candidates.size()];
+      const size_t j = size_t(task) % candidates.size();
+      const int k = c.k;
       const ModelSpec spec = ModelSpec::FromLabel(candidates[j]);
       const FitOptions fo = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model screening)"));
       // A candidate whose fit fails (Ceres: too many invalid steps, a
       // non-finite cost) is out of this cluster's choice, not the end of
       // the reconstruction: the other candidates can still explain it.
       try {
-        const FitResult r = FitModel(spec, samples, train, fo,
+        const FitResult r = FitModel(spec, samples, c.train, fo,
                                      spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
-        std::vector<double> e = SampleErrors(spec, r.params, samples, hold, display);
-        tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
+        std::vector<double> e = SampleErrors(spec, r.params, samples, c.hold, c.display);
+        c.tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
       } catch (const Error& e) {
-        tried[j] = {spec, FitResult{}, kFailed, {}};
-        tried[j].failed = e.what();
+        c.tried[j] = {spec, FitResult{}, kFailed, {}};
+        c.tried[j].failed = e.what();
       }
     });
-    const std::vector<size_t> finalists = Finalists(tried, o.parsimony * signal);
     // The finalists are compared on out-of-fold errors over all the
     // cluster's samples (photo folds, photo_folds.h): every photo is
     // validation once, so the choice does not hang on what the held-out
@@ -254,11 +287,19 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     // Without the cross-validation the held-out photos alone choose worse
     // models with few photos (default preset at 8 photos, mixed_tiny).
     // The basis itself is the fit on the training samples.
-    const std::vector<int> fold = PhotoFolds(samples, all, kPhotoFolds, o.seed);
-    FitOptions cv = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model cross-validation)"));
-    const double cv_signal = SignalRms(samples, all, display);
-    ParallelFor(long(finalists.size()), o.threads, [&](long f) {
-      Tried& t = tried[finalists[f]];
+    std::vector<std::pair<size_t, size_t>> final_tasks;  // (selection, finalist)
+    for (size_t w = 0; w < wave; ++w) {
+      Selection& c = sel[w];
+      c.finalists = Finalists(c.tried, o.parsimony * c.signal);
+      c.fold = PhotoFolds(samples, c.all, kPhotoFolds, o.seed);
+      c.cv_signal = SignalRms(samples, c.all, c.display);
+      for (size_t f : c.finalists) final_tasks.emplace_back(w, f);
+    }
+    ParallelFor(long(final_tasks.size()), o.threads, [&](long task) {
+      Selection& c = sel[final_tasks[task].first];
+      const int k = c.k;
+      Tried& t = c.tried[final_tasks[task].second];
+      const FitOptions cv = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model cross-validation)"));
       // The cluster's own model was screened from its split-stage material
       // (fitted on every texel, sparse ones included): multi-start around
       // that screening fit (which is among the starts, so the training cost
@@ -267,57 +308,64 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       // The other finalists were screened from the models' own starts.
       const bool warm = t.spec == cl.basis()[k].spec;
       try {
-        t.fit = cl.FitIds(t.spec, train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
+        t.fit = cl.FitIds(t.spec, c.train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
         double albedo = 0;
         if (ReflectsMoreThanItReceives(t.spec, t.fit.params, &albedo))
           throw Error(Msg("reflects more light than it receives (directional albedo up to ", albedo, ")"));
-        t.errors = OutOfFoldErrors(t.spec, samples, all, fold, cv, t.fit.params, display);
+        t.errors = OutOfFoldErrors(t.spec, samples, c.all, c.fold, cv, t.fit.params, c.display);
         t.rmse = TrimmedRmse(t.errors);
-        t.held_errors = SampleErrors(t.spec, t.fit.params, samples, hold, display);
+        t.held_errors = SampleErrors(t.spec, t.fit.params, samples, c.hold, c.display);
         t.held_rmse = TrimmedRmse(t.held_errors);
       } catch (const Error& e) {
         t.rmse = kFailed, t.errors.clear(), t.failed = e.what();
       }
       t.final = true;
     });
-    for (const Tried& t : tried)
-      if (!t.failed.empty()) log(Msg("cluster ", k, ": candidate ", t.spec.Label(), " left out: ", t.failed));
-    std::vector<size_t> usable;
-    for (size_t j : finalists)
-      if (tried[j].failed.empty()) usable.push_back(j);
-    if (usable.empty()) {  // every fit failed: the clustering's material stays
-      log(Msg("cluster ", k, ": every candidate's fit failed; keeps its clustering model ", cl.basis()[k].spec.Label()));
-      continue;
-    }
-    // The fewest parameters unless the best model is better by `parsimony`
-    // of the signal's RMS (a difference that shows in a picture) and by
-    // `model_min_z` standard errors (paired over held-out samples); fits at
-    // their bounds only when clearly better (ChooseModel).
-    // Ties out of fold are broken with the held-out photos too
-    // (ChooseModelOnBoth): on the torus the folds narrowly preferred
-    // coated-beckmann, the held-out photos clearly coated-ggx (the truth:
-    // GGX).
-    std::vector<ModelCandidate> fold_candidates, held_candidates;
-    for (size_t j : usable) {
-      fold_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
-      if (hold.size() >= kMinValidationSamples)
-        held_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].held_rmse, tried[j].held_errors});
-    }
-    const int chosen = int(usable[ChooseModelOnBoth(fold_candidates, held_candidates, cl.basis()[k].spec,
-                                                    o.parsimony * cv_signal, o.model_min_z)]);
+    for (Selection& c : sel) {
+      const int k = c.k;
+      const std::vector<Tried>& tried = c.tried;
+      for (const Tried& t : tried)
+        if (!t.failed.empty()) log(Msg("cluster ", k, ": candidate ", t.spec.Label(), " left out: ", t.failed));
+      std::vector<size_t> usable;
+      for (size_t j : c.finalists)
+        if (tried[j].failed.empty()) usable.push_back(j);
+      if (usable.empty()) {  // every fit failed: the clustering's material stays
+        log(Msg("cluster ", k, ": every candidate's fit failed; keeps its clustering model ", cl.basis()[k].spec.Label()));
+        continue;
+      }
+      // The fewest parameters unless the best model is better by `parsimony`
+      // of the signal's RMS (a difference that shows in a picture) and by
+      // `model_min_z` standard errors (paired over held-out samples); fits at
+      // their bounds only when clearly better (ChooseModel).
+      // Ties out of fold are broken with the held-out photos too
+      // (ChooseModelOnBoth): on the torus the folds narrowly preferred
+      // coated-beckmann, the held-out photos clearly coated-ggx (the truth:
+      // GGX).
+      std::vector<ModelCandidate> fold_candidates, held_candidates;
+      for (size_t j : usable) {
+        fold_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
+        if (c.hold.size() >= kMinValidationSamples)
+          held_candidates.push_back({tried[j].spec, tried[j].fit.params, tried[j].held_rmse, tried[j].held_errors});
+      }
+      const int chosen = int(usable[ChooseModelOnBoth(fold_candidates, held_candidates, cl.basis()[k].spec,
+                                                      o.parsimony * c.cv_signal, o.model_min_z)]);
 
-    for (size_t j = 0; j < tried.size(); ++j)
-      est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(), int(j) == chosen,
-                                   tried[j].final});
-    std::string others;
-    for (size_t j : usable)
-      if (int(j) != chosen)
-        others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, " / ", tried[j].held_rmse, FitAtBound(tried[j].spec, tried[j].fit.params) ? " at a bound" : "");
-    log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (out-of-fold RMSE ", tried[chosen].rmse,
-            ", held-out ", tried[chosen].held_rmse,
-            FitAtBound(tried[chosen].spec, tried[chosen].fit.params) ? " at a bound" : "", "; finalists", others, ")"));
-    cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
-    longest = std::max(longest, std::chrono::duration<double>(std::chrono::steady_clock::now() - cluster_start).count());
+      for (size_t j = 0; j < tried.size(); ++j)
+        est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(),
+                                     int(j) == chosen, tried[j].final});
+      std::string others;
+      for (size_t j : usable)
+        if (int(j) != chosen)
+          others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, " / ", tried[j].held_rmse,
+                        FitAtBound(tried[j].spec, tried[j].fit.params) ? " at a bound" : "");
+      log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (out-of-fold RMSE ", tried[chosen].rmse,
+              ", held-out ", tried[chosen].held_rmse,
+              FitAtBound(tried[chosen].spec, tried[chosen].fit.params) ? " at a bound" : "", "; finalists", others, ")"));
+      cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
+    }
+    const double per_cluster =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wave_start).count() / double(wave);
+    longest = std::max(longest, per_cluster);
   }
   // Reported in cluster order, whatever order they were chosen in.
   std::stable_sort(est.model_choices.begin() + choices_before, est.model_choices.end(),
