@@ -131,7 +131,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "their height field casts shadows in (0 = the interquartile start alone)");
   c->add_option("--ps-lobe-normals", job->photometric_lobe_normals,
                 "photometric captures with unknown normals: where the Lambertian start fits its photos, search the\n"
-                "normals under Lambert + one specular lobe shared by the object (default 1)");
+                "normals under a diffuse (Lambert or under a smooth interface) + one specular lobe shared by the object\n"
+                "(default 1)");
   c->add_option("--ps-max-basis", job->photometric.max_basis, "photometric captures: most basis BRDFs (Lambert included)");
   c->add_option("--ps-min-gain", job->photometric.min_gain,
                 "photometric captures: relative cross-validated error drop an added basis BRDF must bring");
