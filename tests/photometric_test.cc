@@ -133,6 +133,17 @@ TEST(Photometric, NormalIntegrationOptionsAreChecked) {
   EXPECT_NO_THROW(NormalIntegrationOptions{}.Check());
 }
 
+TEST(Photometric, OneLobeDiffuseIndicesAreChecked) {
+  DictionaryFitOptions o;
+  EXPECT_NO_THROW(o.Check());
+  o.one_lobe_diffuse_etas = {};
+  EXPECT_THROW(o.Check(), Error);
+  o.one_lobe_diffuse_etas = {1.0, 0.8};
+  EXPECT_THROW(o.Check(), Error);
+  o.one_lobe_diffuse_etas = {std::nan("")};
+  EXPECT_THROW(o.Check(), Error);
+}
+
 TEST(Photometric, PixelMeshHasOneQuadPerPixelMappedOntoItsTexel) {
   const Camera cam = Ortho(8, 6, 1000);
   Image region(8, 6, 1), normals(8, 6, 3);
