@@ -20,11 +20,12 @@ double Shown(double v, const DisplayScale& display, const SampleSet& s, int64_t 
 std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double>& params, const SampleSet& s,
                                  const std::vector<int64_t>& ids, const DisplayScale& display) {
   std::vector<double> e(ids.size());
+  std::vector<Rgb> p(ids.size());
+  PredictSamples(spec, params.data(), s, ids.data(), 0, int64_t(ids.size()), p.data());
   for (size_t j = 0; j < ids.size(); ++j) {
     const int64_t i = ids[j];
-    const Rgb p = PredictSample(spec, params.data(), s, i);
     e[j] = 0;
-    for (int c = 0; c < 3; ++c) e[j] += Sq(Shown(p[c], display, s, i, c) - Shown(s.y[c][i], display, s, i, c));
+    for (int c = 0; c < 3; ++c) e[j] += Sq(Shown(p[j][c], display, s, i, c) - Shown(s.y[c][i], display, s, i, c));
   }
   return e;
 }
