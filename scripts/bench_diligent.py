@@ -392,7 +392,15 @@ def erode(mask, px):
     return cv2.erode(mask.astype(np.uint8), cross, iterations=px, borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0
 
 
-def python_import(dlg, out, hold_out_every=6, erode_px=2, erode_training_px=0, exposure_rule="1"):
+def dequantized_floor(img8):
+    """As import-ps --quantization floor: a floored count k >= 1 stored at k + 1/2 as 16-bit PNG
+    (round((k + 1/2) * 257)); 0 stays 0, 255 stays saturated."""
+    k = img8.astype(np.float64)
+    return np.where(k >= 255, 65535, np.where(k > 0, np.round((k + 0.5) * 257), 0)).astype(np.uint16)
+
+
+def python_import(dlg, out, hold_out_every=6, erode_px=2, erode_training_px=0, exposure_rule="1",
+                  quantization="floor"):
     """Writes out/scene.json and out/heldout/scene.json as import-ps is specified to (but with this
     script's own choices for masks and exposure)."""
     if os.path.exists(out):
@@ -421,7 +429,10 @@ def python_import(dlg, out, hold_out_every=6, erode_px=2, erode_training_px=0, e
         images, lights = [], []
         for i in np.where(sel)[0]:
             stem = os.path.splitext(dlg["names"][i])[0]
-            shutil.copyfile(os.path.join(dlg["folder"], dlg["names"][i]), os.path.join(folder, "images", stem + ".png"))
+            if quantization == "floor":
+                cv2.imwrite(os.path.join(folder, "images", stem + ".png"), dequantized_floor(photos[i]))
+            else:
+                shutil.copyfile(os.path.join(dlg["folder"], dlg["names"][i]), os.path.join(folder, "images", stem + ".png"))
             m = (eroded_held if sub else eroded_train) & np.all(photos[i] < 255, axis=2)
             cv2.imwrite(os.path.join(folder, "masks", stem + ".png"), m.astype(np.uint8) * 255)
             lx, ly, lz = dlg["dirs"][i]

@@ -574,5 +574,59 @@ TEST(ImportPs, WritesTrainingAndHeldOutScenesWithUnknownNormals) {
   fs::remove_all(o.out_dir);
 }
 
+TEST(ImportPs, FlooredEightBitCountsAreStoredAtTheMiddleOfTheirStep) {
+  ImportPsOptions o;
+  o.in_dir = CropCopy("floor");
+  o.out_dir = o.in_dir + "_cap";
+  o.progress = false;
+  {  // a saturated and a black pixel in the first photo
+    Image first = ReadImage(o.in_dir + "/001.png");
+    for (int c = 0; c < first.channels; ++c) first.at(0, 0, c) = 1.0f, first.at(1, 0, c) = 0.0f;
+    WriteImage(o.in_dir + "/001.png", first, PixelFormat::kUInt8);
+  }
+  EXPECT_EQ(o.quantization, "floor");  // DiLiGenT's 8-bit copies are floored
+  EXPECT_EQ(ImportPs(o).dequantized, 96);
+  long mid = 0, zero = 0, saturated = 0;
+  for (const std::string photo : {"001", "006"}) {  // a training and a held-out photo
+    const Image src = ReadImage(o.in_dir + "/" + photo + ".png");
+    const Image got = ReadImage(o.out_dir + (photo == "006" ? "/heldout" : "") + "/images/" + photo + ".png");
+    ASSERT_EQ(src.bits, 8);
+    ASSERT_EQ(got.bits, 16);
+    ASSERT_EQ(got.pixels.size(), src.pixels.size());
+    for (size_t i = 0; i < src.pixels.size(); ++i) {
+      const long k = std::lround(src.pixels[i] * 255.0);
+      if (k == 0) {
+        EXPECT_EQ(got.pixels[i], 0.0f);
+        ++zero;
+      } else if (k == 255) {
+        EXPECT_GE(got.pixels[i], got.saturation_level);
+        ++saturated;
+      } else {
+        EXPECT_NEAR(got.pixels[i], (k + 0.5) / 255.0, 0.6 / 65535);
+        ++mid;
+      }
+    }
+  }
+  EXPECT_GT(mid, 1000);
+  EXPECT_GT(zero, 0);
+  EXPECT_GT(saturated, 0);
+  fs::remove_all(o.out_dir);
+  // Rounded counts are the values themselves: the photos are copied.
+  o.quantization = "round";
+  EXPECT_EQ(ImportPs(o).dequantized, 0);
+  const Image copied = ReadImage(o.out_dir + "/images/001.png");
+  EXPECT_EQ(copied.bits, 8);
+  EXPECT_EQ(copied.pixels, ReadImage(o.in_dir + "/001.png").pixels);
+  fs::remove_all(o.out_dir);
+  fs::remove_all(o.in_dir);
+  o.quantization = "nearest";
+  try {
+    o.Check();
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--quantization must be floor or round"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace svbrdf

@@ -26,6 +26,10 @@ void RegisterImportPs(CLI::App& app, Runner* run) {
                 "the same kind of file kept as ground truth for the report only (normals stay unknown)");
   c->add_option("--erode", o->erode_px, "held-out photo masks: the object mask eroded by this many pixels");
   c->add_option("--erode-training", o->erode_training_px, "training photo masks: the same (0: every object pixel)");
+  c->add_option("--quantization", o->quantization,
+                "how 8-bit photos were quantised: floor (truncated, as DiLiGenT's 8-bit copies; a count k is stored\n"
+                "as k + 1/2, 0 stays 0) or round (stored as is); 16-bit and float photos are copied as they are")
+      ->check(CLI::IsMember({"floor", "round"}));
   c->add_option("--pixels-per-metre", o->pixels_per_metre, "metric scale of the orthographic camera (nominal)");
   c->callback([o, run] {
     *run = [o] {
@@ -33,6 +37,9 @@ void RegisterImportPs(CLI::App& app, Runner* run) {
       std::printf("capture: %s/scene.json (%d photos), %s/heldout/scene.json (%d photos); %ld object pixels, %ld "
                   "saturated pixel values left out of the masks\n",
                   o->out_dir.c_str(), r.training, o->out_dir.c_str(), r.held_out, r.object_pixels, r.saturated_samples);
+      if (r.dequantized > 0)
+        std::printf("8-bit photos: %d stored as 16-bit PNG with each floored count k at k + 1/2 (--quantization)\n",
+                    r.dequantized);
       return 0;
     };
   });

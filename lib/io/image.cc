@@ -61,6 +61,7 @@ Image ReadImage(const std::string& path, ColorSpace space) {
     throw Error(Msg(path, ": cannot read image: ", in->geterror()));
   const bool is_float = IsFloatType(spec.format);
   img.saturation_level = is_float ? std::numeric_limits<float>::infinity() : 1.0f;
+  img.bits = is_float ? 0 : int(spec.format.size() * 8);
   // The scene's colour space applies to integer files only: EXR/HDR are linear by definition.
   const std::string ext = LowerExtension(path);
   if (space == ColorSpace::kSRGB && !is_float && ext != ".exr" && ext != ".hdr") {

@@ -12,6 +12,9 @@ struct Image {
   // Largest value the file's format can hold (1 for integer formats after
   // normalisation, +inf for float files); values >= this are saturated.
   float saturation_level = 1.0f;
+  // Bits per channel of an integer file (8, 16; what one step of the value
+  // is: 1 / (2^bits - 1)); 0 for float files and images made in memory.
+  int bits = 0;
 
   Image() = default;
   Image(int w, int h, int c, float fill = 0.0f) : width(w), height(h), channels(c), pixels(size_t(w) * h * c, fill) {}

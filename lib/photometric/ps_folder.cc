@@ -21,6 +21,19 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// An 8-bit photo whose counts were floored, each count k >= 1 put at the
+// middle k + 1/2 of the values it stands for (ImportPsOptions::quantization);
+// 0 and 255 (saturated) stay, and so does an alpha channel.
+Image Dequantized(const Image& photo) {
+  Image out = photo;
+  for (size_t i = 0; i < out.pixels.size(); ++i) {
+    if (out.channels == 4 && i % 4 == 3) continue;
+    const long k = std::lround(double(out.pixels[i]) * 255.0);
+    if (k >= 1 && k <= 254) out.pixels[i] = float((k + 0.5) / 255.0);
+  }
+  return out;
+}
+
 // Rows of three numbers; blank lines are skipped.
 std::vector<Vec3> ReadRows3(const std::string& path) {
   std::ifstream in(path);
@@ -137,6 +150,8 @@ void ImportPsOptions::Check() const {
     throw Error(Msg("import-ps: --erode-training must be in [0, 20], got ", erode_training_px));
   if (!(pixels_per_metre > 0) || !std::isfinite(pixels_per_metre))
     throw Error(Msg("import-ps: --pixels-per-metre must be a finite number > 0, got ", pixels_per_metre));
+  if (quantization != "floor" && quantization != "round")
+    throw Error(Msg("import-ps: --quantization must be floor or round, got '", quantization, "'"));
 }
 
 Image ReadCameraNormals(const std::string& path, int width, int height) {
@@ -197,6 +212,8 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
   train.mesh = "mesh.obj";
   held.mesh = "../mesh.obj";
   std::vector<long> saturated(n, 0);
+  std::vector<std::string> ext(n);  // of the photo as stored in the capture
+  std::vector<char> dequantized(n, 0);
   Progress progress("import photos", n, o.progress);
   ParallelFor(n, 0, [&](long i) {
     const bool is_held = (i + 1) % o.hold_out_every == 0;
@@ -214,10 +231,15 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
             break;
           }
       }
-    const std::string ext = fs::path(f.files[i]).extension().string();
     char stem[16];
     std::snprintf(stem, sizeof stem, "%03ld", i + 1);
-    fs::copy_file(src, sub / "images" / (std::string(stem) + ext), fs::copy_options::overwrite_existing);
+    if (photo.bits == 8 && o.quantization == "floor") {
+      ext[i] = ".png", dequantized[i] = 1;
+      WriteImage((sub / "images" / (std::string(stem) + ext[i])).string(), Dequantized(photo), PixelFormat::kUInt16);
+    } else {
+      ext[i] = fs::path(f.files[i]).extension().string();
+      fs::copy_file(src, sub / "images" / (std::string(stem) + ext[i]), fs::copy_options::overwrite_existing);
+    }
     WriteImage((sub / "masks" / (std::string(stem) + ".png")).string(), mask, PixelFormat::kUInt8);
     progress.Tick();
   });
@@ -233,7 +255,7 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
     ImageEntry e;
     char stem[16];
     std::snprintf(stem, sizeof stem, "%03d", i + 1);
-    e.file = "images/" + std::string(stem) + fs::path(f.files[i]).extension().string();
+    e.file = "images/" + std::string(stem) + ext[i];
     e.mask = "masks/" + std::string(stem) + ".png";
     e.camera = cam.id;
     e.light = l.id;
@@ -241,6 +263,7 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
     s.images.push_back(e);
     (is_held ? result.held_out : result.training) += 1;
     result.saturated_samples += saturated[i];
+    result.dequantized += dequantized[i];
   }
   if (result.training < 3) throw Error(Msg("import-ps: only ", result.training, " training photos; lower --hold-out-every"));
 

@@ -47,6 +47,16 @@ PsFolder ReadPsFolder(const std::string& dir);
 //                      frame, zero outside the object): the mesh carries them
 //   truth_normals_file optional, the same kind of file kept as ground truth
 //                      for evaluation only (the capture's normals stay unknown)
+//   quantization       how the 8-bit photos' counts were made from the
+//                      sensor's values: "floor" (truncated, as 16-bit >> 8
+//                      and DiLiGenT's 8-bit copies do) or "round". A floored
+//                      count k stands for a value in [k, k + 1): the capture
+//                      stores k + 1/2 (as 16-bit PNG), which on dark photos
+//                      (DiLiGenT's median 3-16 of 255) is a bias of 3-15 %
+//                      otherwise; 0 stays 0 (in shadow the light is near 0,
+//                      and a half count there reads as light), 255 stays
+//                      saturated. 16-bit and float photos are copied as they
+//                      are                                                 floor | round
 struct ImportPsOptions {
   std::string in_dir, out_dir;
   int hold_out_every = 6;
@@ -54,6 +64,7 @@ struct ImportPsOptions {
   int erode_training_px = 0;
   double pixels_per_metre = 1000.0;
   std::string normals_file, truth_normals_file;
+  std::string quantization = "floor";
   bool progress = true;
   void Check() const;
 };
@@ -62,6 +73,7 @@ struct ImportPsResult {
   int training = 0, held_out = 0;
   long object_pixels = 0;
   long saturated_samples = 0;  // pixel x photo pairs left out of the masks
+  int dequantized = 0;         // 8-bit photos stored with floored counts put at k + 1/2
 };
 
 // Writes out_dir/scene.json, out_dir/heldout/scene.json, images, masks and
