@@ -35,7 +35,7 @@ struct FitOptions {
   // basis materials have few parameters, so more samples add time, not accuracy.
   // Fewer are used when a fit on 4000 already predicts the unseen rest of
   // the subset as well as its own samples (FitModel).
-  int64_t max_samples = 20000;
+  int64_t max_samples = 10000;
   // Try several shape starts (exponents, roughness) and keep the best; off =
   // refine from the given start only (e.g. a robust refit of a fit).
   bool multi_start = true;
