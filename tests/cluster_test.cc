@@ -174,6 +174,30 @@ TEST(Cluster, FindsTheTrueNumberOfMaterials) {
   }
 }
 
+// With two threads the split search works out the control split beside the
+// candidate (on a copy of the parent state); with one, in turn after it. The
+// search takes the same steps either way.
+TEST(Cluster, ControlBesideTheCandidateTakesTheSameSteps) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Glossy(0.1, 2.0, 40), Lambert(0.1, 0.3, 0.6)};
+  std::vector<int> label(300);
+  for (size_t t = 0; t < label.size(); ++t) label[t] = int(t * 3 / label.size());
+  const SampleSet s = MakeSamples(truth, label, 13);
+  ReconstructOptions one = Quiet(), two = Quiet();
+  one.threads = 1;
+  ASSERT_TRUE(two.control_split && two.threads == 2);
+  const SvbrdfEstimate a = EstimateSvbrdf(s, LineAtlas(300), one), b = EstimateSvbrdf(s, LineAtlas(300), two);
+  ASSERT_EQ(a.history.size(), b.history.size());
+  EXPECT_GE(a.history.size(), 3u);  // 1, 2 and 3 clusters at least
+  for (size_t i = 0; i < a.history.size(); ++i) {
+    EXPECT_EQ(a.history[i].clusters, b.history[i].clusters) << "step " << i;
+    EXPECT_EQ(a.history[i].partition, b.history[i].partition) << "step " << i;
+    EXPECT_EQ(a.history[i].accepted, b.history[i].accepted) << "step " << i;
+    EXPECT_NEAR(a.history[i].heldout_rmse, b.history[i].heldout_rmse, 1e-6 * a.history[i].heldout_rmse) << "step " << i;
+  }
+  EXPECT_EQ(a.basis.size(), 3u);
+  EXPECT_EQ(a.label, b.label);
+}
+
 TEST(Cluster, DoesNotChooseMoreLobesThanTheTruth) {
   const std::vector<BasisMaterial> truth = {Glossy(0.2, 1.5, 30)};
   const SampleSet s = MakeSamples(truth, std::vector<int>(200, 0), 5);

@@ -105,6 +105,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   fo.multi_start = fo.multi_start && multi_start;
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
+  else if (threads_ > 0) fo.threads = threads_;
   fo.context = k >= 0 ? Msg("reconstruct: cluster ", k, " (", stage, ")") : Msg("reconstruct: ", stage);
   return RobustFit(spec, s_, ids, o_, fo, init, init_is_fit);
 }
@@ -169,7 +170,7 @@ long Clustering::Assign() {
   // Texels too sparse for fits are still assigned (their neighbours help),
   // so that their weights mix the right materials.
   const std::vector<double> err = TexelErrors(train_count_, 0);
-  ParallelFor(nt_, o_.threads, [&](long t) {
+  ParallelFor(nt_, threads(), [&](long t) {
     if (train_count_[t] == 0) return;
     const int k = PooledBest(err, int(t), train_count_);
     if (k >= 0) next[t] = k;
@@ -217,7 +218,7 @@ void FillLabels(const std::vector<std::vector<int>>& neighbours, const std::vect
 std::vector<double> Clustering::TexelErrors(const std::vector<int>& count, int which) const {
   const int K = this->K();
   std::vector<double> err(size_t(nt_) * K, 0.0);
-  ParallelFor(nt_, o_.threads, [&](long t) {
+  ParallelFor(nt_, threads(), [&](long t) {
     if (count[t] == 0) return;
     for (int k = 0; k < K; ++k) err[size_t(t) * K + k] = ScaledError(int(t), k, which);
   }, 512);
@@ -273,7 +274,7 @@ double Clustering::ClusterSse(int k) const {
 std::vector<float> Clustering::Predict(const BasisMaterial& b) const {
   std::vector<float> p(3 * size_t(s_.size()));
   constexpr int64_t kChunk = 4096;
-  ParallelFor((s_.size() + kChunk - 1) / kChunk, o_.threads, [&](long k) {
+  ParallelFor((s_.size() + kChunk - 1) / kChunk, threads(), [&](long k) {
     const int64_t first = k * kChunk, n = std::min<int64_t>(kChunk, s_.size() - first);
     std::vector<Rgb> f(n);
     PredictSamples(b.spec, b.params.data(), s_, nullptr, first, n, f.data());

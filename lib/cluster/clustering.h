@@ -76,6 +76,10 @@ class Clustering {
   const std::vector<std::vector<int>>& neighbours() const { return neighbours_; }
   const SampleSet& samples() const { return s_; }
   const ReconstructOptions& options() const { return o_; }
+  // Threads of this clustering's loops and fits: the options' unless set
+  // (> 0), e.g. to share the cores between two copies worked side by side.
+  int threads() const { return threads_ > 0 ? threads_ : o_.threads; }
+  void SetThreads(int threads) { threads_ = threads; }
 
   // Sample ids of usable texels in cluster k (all clusters when k < 0), train
   // or held-out; with well_seen_fits (final materials): of its texels with
@@ -161,6 +165,7 @@ class Clustering {
   int PooledBest(const std::vector<double>& err, int t, const std::vector<int>& count) const;
 
   const SampleSet& s_;
+  int threads_ = 0;
   const ReconstructOptions& o_;
   const int nt_;
   std::vector<char> holdout_;

@@ -78,7 +78,7 @@ std::vector<int> SplitSides(const Clustering& cl, int k, int variant) {
   using VecF = Eigen::Matrix<double, kFeatures, 1>;
   using MatF = Eigen::Matrix<double, kFeatures, kFeatures>;
   Eigen::MatrixXd X(T, kFeatures);
-  ParallelFor(long(T), cl.options().threads, [&](long j) {
+  ParallelFor(long(T), cl.threads(), [&](long j) {
     const int t = texels[j];
     MatF AtA = MatF::Zero();
     VecF Atb = VecF::Zero();
@@ -245,7 +245,7 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
   // Independent quick fits (screening, as in model selection), one per thread.
   std::vector<FitResult> fits(specs.size());
   std::vector<double> mse(specs.size(), 0.0);
-  ParallelFor(long(specs.size()), o.threads, [&](long j) {
+  ParallelFor(long(specs.size()), cl.threads(), [&](long j) {
     fits[j] = FitModel(specs[j], cl.samples(), train,
                        ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (split model)")), start(specs[j]));
     if (hold.empty()) {

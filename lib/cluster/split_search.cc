@@ -6,6 +6,7 @@
 #include "cluster/split.h"
 #include "cluster/stats.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace svbrdf {
 
@@ -137,7 +138,6 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const State parent{cl.basis(), cl.assign(), 0.0, {}};
     const std::vector<int> control_side = GeometrySplitSides(cl, k);
     const double confounding = SideAgreement(side, control_side);
-    SplitCluster(cl, k, side);
     // The control: the same cluster halved along a direction that says
     // nothing about the material (GeometrySplitSides), scored before
     // refinement as the candidate is here. One split past the best
@@ -147,12 +147,37 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     // right split at standard size barely beat its unrefined control and
     // the search fell back to 1 cluster).
     std::vector<double> candidate_sse, control_sse;
+    std::vector<int> control_assign;
     const bool honest_test = o.force_clusters == 0 && o.control_split;
     const bool confounded = confounding >= kControlConfounded;
     const bool refine_control = lookahead || confounded;
-    if (out_of_time()) break;
-    if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
-    Refine(cl, o.refine_iterations, true);
+    auto work_candidate = [&] {
+      SplitCluster(cl, k, side);
+      if (o.SecondsLeft() <= 0) return;  // undone at the check below
+      if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
+      Refine(cl, o.refine_iterations, true);
+    };
+    auto work_control = [&](Clustering& c) {
+      SplitCluster(c, k, control_side);
+      if (refine_control) Refine(c, o.refine_iterations);
+      control_assign = c.assign();
+      c.HeldoutRmse(false, &control_sse);
+    };
+    // The control does not depend on the candidate: with two threads or
+    // more both are worked out side by side from the parent state, the
+    // control on a copy, each on half the threads (a fit's own threads idle
+    // through Ceres' serial steps; the halves' fits in turn left the second
+    // core half idle). With one thread the control waits for the candidate
+    // to pass its own test (below).
+    const int threads = ResolveThreads(o.threads);
+    const bool control_aside = honest_test && threads >= 2;
+    if (control_aside) {
+      Clustering copy(cl);
+      copy.SetThreads(std::max(1, threads / 2));
+      ParallelFor(2, 2, [&](long j) { j == 0 ? work_candidate() : work_control(copy); });
+    } else {
+      work_candidate();
+    }
     if (out_of_time()) break;
     const uint64_t key = PartitionKey(cl.assign());
     if (!evaluated.insert(key).second) {
@@ -191,22 +216,20 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // fits specialise to the directions their texels saw, and lowers the
       // error; a split into materials must beat the control split clearly.
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
-      restore(parent);
-      SplitCluster(cl, k, control_side);
-      if (out_of_time()) break;
-      if (refine_control) {
-        Refine(cl, o.refine_iterations);
-        candidate_sse = texel_sse;
+      if (!control_aside) {
+        restore(parent);
+        work_control(cl);
+        restore(candidate);
+        if (out_of_time()) break;
       }
+      if (refine_control) candidate_sse = texel_sse;
       // A refined control that lands on the candidate's own partition found
       // the same regions from a start that says nothing about materials:
       // that is no evidence of model error. Seen on the Mitsuba bunny scan:
       // the look-ahead's three materials, far below their parent, failed
       // against a control refined into the same three, and the search kept
       // 1 material.
-      const double agreement = refine_control ? PartitionAgreement(candidate.assign, cl.assign(), cl.usable()) : 0.0;
-      cl.HeldoutRmse(false, &control_sse);
-      restore(candidate);
+      const double agreement = refine_control ? PartitionAgreement(candidate.assign, control_assign, cl.usable()) : 0.0;
       const double gain = TrimmedDrop(control_sse, candidate_sse);
       const double zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
       const bool same = agreement >= kControlSamePartition;
