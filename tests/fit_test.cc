@@ -191,6 +191,31 @@ double MaxRelativeError(const std::vector<double>& a, const std::vector<double>&
   return worst;
 }
 
+// A fit cancelled by another thread ends at its next iteration with a
+// finite result instead of running on (the split search's speculative
+// control fits).
+TEST(Fit, CancelledFitsEndAtTheirNextIteration) {
+  const ModelSpec spec = ModelSpec::FromLabel("cook_torrance-beckmann");
+  std::vector<double> truth = spec.InitialParams();
+  const SampleSet set = SynthesizeSamples(spec, truth, Synth(3000));
+  std::vector<int64_t> ids(set.size());
+  for (int64_t i = 0; i < set.size(); ++i) ids[i] = i;
+  FitOptions fo;
+  fo.threads = 1;
+  fo.multi_start = false;
+  std::vector<double> start = truth;
+  for (double& p : start) p *= 0.5;  // far from the truth: many iterations
+  const FitResult full = FitModel(spec, set, ids, fo, start);
+  std::atomic<bool> cancel{true};
+  fo.cancel = &cancel;
+  const FitResult cut = FitModel(spec, set, ids, fo, start);
+  EXPECT_GT(full.iterations, 3);
+  EXPECT_LE(cut.iterations, 1);
+  for (double p : cut.params) EXPECT_TRUE(std::isfinite(p));
+  cancel = false;  // not set: the same fit as without
+  EXPECT_EQ(FitModel(spec, set, ids, fo, start).params, full.params);
+}
+
 TEST(Fit, RobustLossBeatsLeastSquaresWithOutliers) {
   const ModelSpec spec = ModelSpec::FromLabel("blinn_phong");
   const std::vector<double> truth{0.3, 0.2, 0.1, 0.4, 0.35, 0.3, 40};

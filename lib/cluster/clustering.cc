@@ -106,6 +106,7 @@ FitResult Clustering::FitIds(const ModelSpec& spec, const std::vector<int64_t>& 
   if (max_samples > 0) fo.max_samples = std::min(fo.max_samples, max_samples);
   if (threads >= 0) fo.threads = threads;
   else if (threads_ > 0) fo.threads = threads_;
+  fo.cancel = cancel_;
   fo.context = k >= 0 ? Msg("reconstruct: cluster ", k, " (", stage, ")") : Msg("reconstruct: ", stage);
   return RobustFit(spec, s_, ids, o_, fo, init, init_is_fit);
 }
@@ -308,8 +309,9 @@ BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
 }
 
 // Assign and refit until stable or `iterations` done; drops empty clusters.
-void Refine(Clustering& cl, int iterations, bool fits_current) {
+void Refine(Clustering& cl, int iterations, bool fits_current, const std::atomic<bool>* stop) {
   for (int it = 0; it < iterations; ++it) {
+    if (stop && *stop) return;
     const long changed = cl.Assign();
     bool removed = false;  // renumbers the clusters: MembershipChanged no longer applies
     for (int k = cl.K() - 1; k >= 0; --k) {
@@ -323,6 +325,7 @@ void Refine(Clustering& cl, int iterations, bool fits_current) {
       // was made on exactly these texels (after the first pass, or when the
       // caller says so: the split search's untouched clusters and halves).
       if ((it > 0 || fits_current) && !removed && !cl.MembershipChanged(k)) continue;
+      if (stop && *stop) return;
       BasisMaterial b = cl.basis()[k];
       // Warm start: the material already fits most of the cluster's texels.
       // A refit that fails keeps that material (a valid fit of nearly the

@@ -7,6 +7,7 @@
 #pragma once
 #include <algorithm>
 #include <chrono>
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -80,6 +81,9 @@ class Clustering {
   // (> 0), e.g. to share the cores between two copies worked side by side.
   int threads() const { return threads_ > 0 ? threads_ : o_.threads; }
   void SetThreads(int threads) { threads_ = threads; }
+  // Its fits end early once `cancel` is set (FitOptions::cancel); null: never.
+  const std::atomic<bool>* cancel() const { return cancel_; }
+  void SetCancel(const std::atomic<bool>* cancel) { cancel_ = cancel; }
 
   // Sample ids of usable texels in cluster k (all clusters when k < 0), train
   // or held-out; with well_seen_fits (final materials): of its texels with
@@ -166,6 +170,7 @@ class Clustering {
 
   const SampleSet& s_;
   int threads_ = 0;
+  const std::atomic<bool>* cancel_ = nullptr;
   const ReconstructOptions& o_;
   const int nt_;
   std::vector<char> holdout_;
@@ -203,7 +208,8 @@ FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector
 // fits_current: every basis was fitted on its cluster's current texels (all
 // training samples, as Clustering::Fit does), so the first pass refits only
 // the clusters whose membership the assignment changes.
-void Refine(Clustering& cl, int iterations, bool fits_current = false);
+// `stop` (optional) set: returns at the next refit, the state unusable.
+void Refine(Clustering& cl, int iterations, bool fits_current = false, const std::atomic<bool>* stop = nullptr);
 
 // Progress lines with the time since the estimate started.
 class StageLog {

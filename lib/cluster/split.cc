@@ -246,8 +246,9 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
   std::vector<FitResult> fits(specs.size());
   std::vector<double> mse(specs.size(), 0.0);
   ParallelFor(long(specs.size()), cl.threads(), [&](long j) {
-    fits[j] = FitModel(specs[j], cl.samples(), train,
-                       ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (split model)")), start(specs[j]));
+    FitOptions fo = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (split model)"));
+    fo.cancel = cl.cancel();
+    fits[j] = FitModel(specs[j], cl.samples(), train, fo, start(specs[j]));
     if (hold.empty()) {
       mse[j] = fits[j].cost;
       return;

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <string>
 #include <unordered_set>
@@ -35,13 +36,16 @@ double SideAgreement(const std::vector<int>& a, const std::vector<int>& b) {
 
 // Moves the side < 0 texels of cluster k to a new cluster and fits both
 // halves, each with the split model that suits it (FitSplitModel).
-void SplitCluster(Clustering& cl, int k, const std::vector<int>& side) {
+// `stop` (optional) set: returns after the first half, leaving the state
+// unusable (a control that turned out not to be needed).
+void SplitCluster(Clustering& cl, int k, const std::vector<int>& side, const std::atomic<bool>* stop = nullptr) {
   const int knew = cl.K();
   for (size_t t = 0; t < side.size(); ++t)
     if (side[t] < 0) cl.assign()[t] = knew;
     else if (side[t] == 0 && cl.assign()[t] == k) cl.assign()[t] = -1;  // re-assigned below
   const BasisMaterial parent = cl.basis()[k];
   cl.SetBasis(knew, FitSplitModel(cl, knew, &parent));
+  if (stop && *stop) return;
   cl.SetBasis(k, FitSplitModel(cl, k, &parent));
   for (int& a : cl.assign()) if (a < 0) a = k;
 }
@@ -151,30 +155,52 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const bool honest_test = o.force_clusters == 0 && o.control_split;
     const bool confounded = confounding >= kControlConfounded;
     const bool refine_control = lookahead || confounded;
+    // Set when the control turns out not to be needed (the candidate fails
+    // its own test, or led back to an evaluated state): a control worked
+    // out beside the candidate stops at its next step.
+    std::atomic<bool> control_unneeded{false};
     auto work_candidate = [&] {
       SplitCluster(cl, k, side);
-      if (o.SecondsLeft() <= 0) return;  // undone at the check below
+      if (o.SecondsLeft() <= 0) return (void)(control_unneeded = true);  // undone at the check below
       if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
       Refine(cl, o.refine_iterations, true);
+      std::vector<double> sse;
+      cl.HeldoutRmse(false, &sse);
+      const State& best_so_far = states[best_state];
+      if (evaluated.count(PartitionKey(cl.assign())) || TrimmedDrop(best_so_far.texel_sse, sse) < o.min_improvement ||
+          std::max(PairedZ(best_so_far.texel_sse, sse), BoundedPairedZ(best_so_far.texel_sse, sse)) < o.min_z)
+        control_unneeded = true;
     };
     auto work_control = [&](Clustering& c) {
-      SplitCluster(c, k, control_side);
-      if (refine_control) Refine(c, o.refine_iterations);
+      SplitCluster(c, k, control_side, &control_unneeded);
+      if (control_unneeded) return;
+      if (refine_control) Refine(c, o.refine_iterations, false, &control_unneeded);
+      if (control_unneeded) return;
       control_assign = c.assign();
       c.HeldoutRmse(false, &control_sse);
     };
     // The control does not depend on the candidate: with two threads or
     // more both are worked out side by side from the parent state, the
-    // control on a copy, each on half the threads (a fit's own threads idle
+    // control on a copy with half the threads (a fit's own threads idle
     // through Ceres' serial steps; the halves' fits in turn left the second
     // core half idle). With one thread the control waits for the candidate
     // to pass its own test (below).
     const int threads = ResolveThreads(o.threads);
-    const bool control_aside = honest_test && threads >= 2;
+    // Not one split past the best (lookahead): there the candidate fails
+    // more often than not, and its control is refined as well, so the
+    // control would mostly take cycles from the candidate for nothing.
+    const bool control_aside = honest_test && threads >= 2 && !lookahead;
     if (control_aside) {
       Clustering copy(cl);
       copy.SetThreads(std::max(1, threads / 2));
-      ParallelFor(2, 2, [&](long j) { j == 0 ? work_candidate() : work_control(copy); });
+      copy.SetCancel(&control_unneeded);
+      // The candidate is needed, the control only if the candidate passes:
+      // the control runs on what the candidate's threads leave idle.
+      ParallelFor(2, 2, [&](long j) {
+        if (j == 0) return work_candidate();
+        LowerThisThreadsPriority();
+        work_control(copy);
+      });
     } else {
       work_candidate();
     }

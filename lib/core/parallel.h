@@ -9,6 +9,12 @@
 #include <thread>
 #include <vector>
 
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 namespace svbrdf {
 
 // Number of worker threads to use: `requested` if > 0, else hardware concurrency.
@@ -48,6 +54,19 @@ inline void ParallelFor(long n, int threads, const std::function<void(long)>& fn
   for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+// Lowers the calling thread's scheduling priority (nice +10) for the rest of
+// its life, so that it runs on cycles the other threads leave idle: for
+// speculative work beside work that is needed anyway. Linux keeps nice per
+// thread (threads it starts inherit it); elsewhere, and where the system
+// refuses, nothing changes. Only for threads that end with their work (a
+// ParallelFor worker): priority once lowered is not raised again.
+inline void LowerThisThreadsPriority() {
+#if defined(__linux__)
+  const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
+  (void)setpriority(PRIO_PROCESS, tid, std::min(19, getpriority(PRIO_PROCESS, tid) + 10));
+#endif
 }
 
 }  // namespace svbrdf

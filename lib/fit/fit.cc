@@ -57,6 +57,18 @@ struct Solution {
   }
 };
 
+// Ends a solve, as converged, once `cancel` is set (FitOptions::cancel).
+class CancelCallback : public ceres::IterationCallback {
+ public:
+  explicit CancelCallback(const std::atomic<bool>* cancel) : cancel_(cancel) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return cancel_ && *cancel_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* cancel_;
+};
+
 // Levenberg–Marquardt on the first `count` packed samples from `start`.
 Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const PackedSamples& packed,
                int64_t count, std::vector<double> start, const FitOptions& options, int max_iterations) {
@@ -91,6 +103,8 @@ Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const 
   // fits, and the forced 2-cluster e2e capture then relights worse
   // (bench_results/per_stage.md).
   so.line_search_interpolation_type = ceres::QUADRATIC;
+  CancelCallback cancel(options.cancel);
+  if (options.cancel) so.callbacks.push_back(&cancel);
   ceres::Solve(so, &problem, &solution.summary);
   return solution;
 }

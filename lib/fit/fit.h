@@ -3,6 +3,7 @@
 // the templated models of lib/brdf, box bounds from ModelSpec::Params()).
 // Ceres is used only inside this module.
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -41,6 +42,9 @@ struct FitOptions {
   bool multi_start = true;
   int threads = 0;  // 0 = all cores
   uint64_t seed = 1;
+  // Set (by another thread): the solves end at their next iteration with
+  // what they have; for speculative fits whose result is no longer wanted.
+  const std::atomic<bool>* cancel = nullptr;
   // Names the fit in errors (e.g. "cluster 2, split"): a fit given a
   // non-finite sample, or whose solve fails or ends at a non-finite cost,
   // throws Error with it instead of returning a meaningless material.
