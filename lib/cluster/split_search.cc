@@ -242,7 +242,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // fits specialise to the directions their texels saw, and lowers the
       // error; a split into materials must beat the control split clearly.
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
-      if (!control_aside) {
+      if (!control_aside || control_unneeded) {  // (the second only if the two tests ever disagreed)
+        control_unneeded = false;
         restore(parent);
         work_control(cl);
         restore(candidate);
