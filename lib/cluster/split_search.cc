@@ -199,7 +199,14 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       ParallelFor(2, 2, [&](long j) {
         if (j == 0) return work_candidate();
         LowerThisThreadsPriority();
-        work_control(copy);
+        // A control that fails (a fit Ceres gives up on) must not end a
+        // search that would not have needed it: it is worked out again in
+        // turn below if it is needed, and fails there as it always did.
+        try {
+          work_control(copy);
+        } catch (const Error&) {
+          control_unneeded = true;
+        }
       });
     } else {
       work_candidate();
@@ -242,7 +249,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // fits specialise to the directions their texels saw, and lowers the
       // error; a split into materials must beat the control split clearly.
       const State candidate{cl.basis(), cl.assign(), h, texel_sse};
-      if (!control_aside || control_unneeded) {  // (the second only if the two tests ever disagreed)
+      if (!control_aside || control_unneeded) {  // (the second only if it failed aside)
         control_unneeded = false;
         restore(parent);
         work_control(cl);
