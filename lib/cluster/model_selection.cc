@@ -241,10 +241,9 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       Selection& c = sel[w];
       const int k = c.k = order[next + w];
       c.hold = cl.Ids(k, true), c.train = cl.Ids(k, false);
+      c.all = c.train;
+      c.all.insert(c.all.end(), c.hold.begin(), c.hold.end());
       if (candidates.size() > 1) ValidationSamples(cl, k, &c.train, &c.hold);
-      c.all = cl.Ids(k, false);
-      const std::vector<int64_t> held_k = cl.Ids(k, true);
-      c.all.insert(c.all.end(), held_k.begin(), held_k.end());
       const double clipped = ClippedShare(samples, c.all, o.display_scale);
       const bool linear = clipped > kMaxClippedShare;
       if (linear)

@@ -159,16 +159,22 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     // its own test, or led back to an evaluated state): a control worked
     // out beside the candidate stops at its next step.
     std::atomic<bool> control_unneeded{false};
+    // The refined candidate's held-out RMSE, its drop below the best so far
+    // without the worst 2 % of texels, and the paired z of that drop.
+    double h = 0, drop = 0, z = 0;
     auto work_candidate = [&] {
       SplitCluster(cl, k, side);
       if (o.SecondsLeft() <= 0) return (void)(control_unneeded = true);  // undone at the check below
       if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
       Refine(cl, o.refine_iterations, true);
-      std::vector<double> sse;
-      cl.HeldoutRmse(false, &sse);
-      const State& best_so_far = states[best_state];
-      if (evaluated.count(PartitionKey(cl.assign())) || TrimmedDrop(best_so_far.texel_sse, sse) < o.min_improvement ||
-          std::max(PairedZ(best_so_far.texel_sse, sse), BoundedPairedZ(best_so_far.texel_sse, sse)) < o.min_z)
+      h = cl.HeldoutRmse(false, &texel_sse);
+      // Paired tests over texels: on the squared errors (dominated by the
+      // texels with the largest errors) or on the bounded per-texel changes
+      // (how consistently texels improve; with few photos the first is noisy).
+      drop = TrimmedDrop(states[best_state].texel_sse, texel_sse);
+      z = std::max(PairedZ(states[best_state].texel_sse, texel_sse),
+                   BoundedPairedZ(states[best_state].texel_sse, texel_sse));
+      if (evaluated.count(PartitionKey(cl.assign())) || !(drop >= o.min_improvement && z >= o.min_z))
         control_unneeded = true;
     };
     auto work_control = [&](Clustering& c) {
@@ -219,15 +225,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       if (undo()) break;
       continue;
     }
-    const double h = cl.HeldoutRmse(false, &texel_sse);
     step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
-    const double drop = TrimmedDrop(states[best_state].texel_sse, texel_sse);
     const double total_drop = 1.0 - (h * h) / std::max(1e-300, best * best);
-    // Paired tests over texels: on the squared errors (dominated by the
-    // texels with the largest errors) or on the bounded per-texel changes
-    // (how consistently texels improve; with few photos the first is noisy).
-    const double z = std::max(PairedZ(states[best_state].texel_sse, texel_sse),
-                              BoundedPairedZ(states[best_state].texel_sse, texel_sse));
     bool passes = drop >= o.min_improvement && z >= o.min_z;
     bool interleaved = false;  // fails the coherence test: no look-ahead past it
     std::string control_note;
