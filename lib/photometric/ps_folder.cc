@@ -212,8 +212,8 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
   train.mesh = "mesh.obj";
   held.mesh = "../mesh.obj";
   std::vector<long> saturated(n, 0);
-  std::vector<std::string> ext(n);  // of the photo as stored in the capture
-  std::vector<char> dequantized(n, 0);
+  std::vector<char> dequantized(n, 0);  // stored as 16-bit PNG (ImportPsOptions::quantization)
+  auto stored_ext = [&](int i) { return dequantized[i] ? std::string(".png") : fs::path(f.files[i]).extension().string(); };
   Progress progress("import photos", n, o.progress);
   ParallelFor(n, 0, [&](long i) {
     const bool is_held = (i + 1) % o.hold_out_every == 0;
@@ -233,13 +233,12 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
       }
     char stem[16];
     std::snprintf(stem, sizeof stem, "%03ld", i + 1);
-    if (photo.bits == 8 && o.quantization == "floor") {
-      ext[i] = ".png", dequantized[i] = 1;
-      WriteImage((sub / "images" / (std::string(stem) + ext[i])).string(), Dequantized(photo), PixelFormat::kUInt16);
-    } else {
-      ext[i] = fs::path(f.files[i]).extension().string();
-      fs::copy_file(src, sub / "images" / (std::string(stem) + ext[i]), fs::copy_options::overwrite_existing);
-    }
+    dequantized[i] = photo.bits == 8 && o.quantization == "floor";
+    const fs::path stored = sub / "images" / (std::string(stem) + stored_ext(int(i)));
+    if (dequantized[i])
+      WriteImage(stored.string(), Dequantized(photo), PixelFormat::kUInt16);
+    else
+      fs::copy_file(src, stored, fs::copy_options::overwrite_existing);
     WriteImage((sub / "masks" / (std::string(stem) + ".png")).string(), mask, PixelFormat::kUInt8);
     progress.Tick();
   });
@@ -255,7 +254,7 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
     ImageEntry e;
     char stem[16];
     std::snprintf(stem, sizeof stem, "%03d", i + 1);
-    e.file = "images/" + std::string(stem) + ext[i];
+    e.file = "images/" + std::string(stem) + stored_ext(i);
     e.mask = "masks/" + std::string(stem) + ".png";
     e.camera = cam.id;
     e.light = l.id;
