@@ -328,9 +328,9 @@ Vec3 BrightestHalfVector(const PsObservations& obs, long p, const uint8_t* sh) {
 }
 
 // A pixel's photos for the one-lobe normal search: luminance under a unit
-// light of its usable photos outside cast shadows, its darkest quarter left
-// out (attached and cast shadows the height field misses, interreflection,
-// 8-bit quantisation).
+// light of its usable photos outside the height field's cast shadows, its
+// darkest quarter left out (attached and cast shadows the height field
+// misses, interreflection, 8-bit quantisation).
 struct LobeRows {
   std::vector<int> light;
   std::vector<double> value;
@@ -349,9 +349,11 @@ LobeRows OneLobeRows(const PsObservations& obs, long p, const uint8_t* sh) {
   return r;
 }
 
-// Squared residual of the best non-negative a0 Lambert + a1 lobe fit to the
-// rows under normal n (unweighted: the photos' own units under a unit light).
-double OneLobeSse(const PsObservations& obs, const GreyBasis& two, const LobeRows& r, const Vec3& n) {
+// The best non-negative a0 Lambert + a1 lobe fit to the rows under normal n
+// (unweighted: the photos' own units under a unit light): its squared
+// residual, and its weights if asked.
+double OneLobeFit(const PsObservations& obs, const GreyBasis& two, const LobeRows& r, const Vec3& n,
+                  double* w = nullptr) {
   const Frame fr = Frame::FromNormal(n);
   const Vec3 wo = fr.ToLocal(obs.to_viewer);
   double aa = 0, ab = 0, bb = 0, ay = 0, by = 0, yy = 0;
@@ -364,33 +366,65 @@ double OneLobeSse(const PsObservations& obs, const GreyBasis& two, const LobeRow
   }
   // 2 x 2 non-negative least squares: the joint solution if both weights
   // are >= 0, else the better single-atom fit (or none).
-  double best = yy;
+  double w0 = 0, w1 = 0, best = yy;
   const double det = aa * bb - ab * ab;
-  if (det > 1e-12 * (aa * bb + 1e-300)) {
-    const double w0 = (bb * ay - ab * by) / det, w1 = (aa * by - ab * ay) / det;
-    if (w0 >= 0 && w1 >= 0) return std::max(0.0, yy - w0 * ay - w1 * by);
+  if (det > 1e-12 * (aa * bb + 1e-300) && (bb * ay - ab * by) >= 0 && (aa * by - ab * ay) >= 0) {
+    w0 = (bb * ay - ab * by) / det, w1 = (aa * by - ab * ay) / det;
+    best = yy - w0 * ay - w1 * by;
+  } else {
+    if (aa > 0 && ay > 0 && yy - ay * ay / aa < best) best = yy - ay * ay / aa, w0 = ay / aa, w1 = 0;
+    if (bb > 0 && by > 0 && yy - by * by / bb < best) best = yy - by * by / bb, w0 = 0, w1 = by / bb;
   }
-  if (aa > 0 && ay > 0) best = std::min(best, yy - ay * ay / aa);
-  if (bb > 0 && by > 0) best = std::min(best, yy - by * by / bb);
+  if (w) w[0] = w0, w[1] = w1;
   return std::max(0.0, best);
 }
 
-// Compass search (steps of 4 degrees halved down to 0.25) from `start`,
-// within kMaxOneLobeTurn of it: the Lambertian bias one lobe shape corrects
-// is a few degrees (near-frontal normals tilted too far by 3.7-5.1 degrees
-// on average on DiLiGenT's cat and pot1); a pixel whose best fit lies
-// further away is one the two-term model does not describe (shadows the
-// height field misses, interreflection), and unbounded the search took
-// pot1 from 7.4 to 8.8 degrees.
-constexpr double kMaxOneLobeTurn = 5.0 * kPi / 180;
-Vec3 OneLobeSearch(const PsObservations& obs, const GreyBasis& two, const LobeRows& r, const Vec3& start,
-                   double* sse_out, double max_turn = kMaxOneLobeTurn) {
-  return CompassSearch(start, [&](const Vec3& m) { return OneLobeSse(obs, two, r, m); }, 120, max_turn, sse_out);
+// The photos the search fits, once the lobe is chosen: those the pair
+// describes at the start. A photo darker than kLobeShadowRatio of the
+// pair's prediction (fitted to the rows above at the start), or lit at
+// cos < kLobeMinCos, is a shadow the height field missed (a leaf on a lid,
+// a handle), interreflection or a count near zero; dropping a fixed share
+// (the darkest quarter) leaves such photos in wherever more than a quarter
+// of a pixel's lights are hidden, and they pull its normal. Highlights stay:
+// the lobe describes them. The prediction is the chosen pair's, not a
+// Lambertian one, so that a diffuse darker at grazing light than Lambert
+// (under an interface) keeps its grazing photos. A pixel left with fewer
+// than kMinLobeRows photos keeps the rows above.
+constexpr double kLobeShadowRatio = 0.7, kLobeMinCos = 0.15;
+constexpr size_t kMinLobeRows = 8;
+
+LobeRows LitLobeRows(const PsObservations& obs, const GreyBasis& two, long p, const uint8_t* sh, const Vec3& start,
+                     LobeRows quartile) {
+  double w[2];
+  OneLobeFit(obs, two, quartile, start, w);
+  const Frame fr = Frame::FromNormal(start);
+  const Vec3 wo = fr.ToLocal(obs.to_viewer);
+  LobeRows r;
+  for (int l = 0; l < obs.lights; ++l) {
+    const size_t i = obs.At(p, l);
+    if ((sh && sh[l]) || !obs.UsableRgb(i)) continue;
+    const Vec3 wi = fr.ToLocal(obs.to_light[l]);
+    if (wi.z() <= kLobeMinCos || wo.z() <= 0) continue;
+    double a[2];
+    two.Eval(wi, wo, a);
+    const double v = Luminance(&obs.value[i]);
+    if (v > kLobeShadowRatio * (w[0] * a[0] + w[1] * a[1])) r.light.push_back(l), r.value.push_back(v);
+  }
+  return r.light.size() >= kMinLobeRows && w[0] + w[1] > 0 ? r : quartile;
 }
-// The model choice's searches go further: held to the bound, a pixel whose
-// start is off by more cannot reach the true model's fit, and a wrong
-// model that bends towards the start's error wins the choice.
-constexpr double kOneLobeChoiceTurn = 15.0 * kPi / 180;
+
+// Compass search (steps of 4 degrees halved down to 0.25) from `start`,
+// within kOneLobeTurn of it. The model choice searches as far as the final
+// search: held closer, a pixel whose start is off by more cannot reach the
+// true model's fit, and a wrong model that bends towards the start's error
+// wins the choice. (A tighter bound only served rows that keep shadows:
+// those pull a wide search away. LitLobeRows leaves them out; see
+// docs/measurements.md.)
+constexpr double kOneLobeTurn = 15.0 * kPi / 180;
+Vec3 OneLobeSearch(const PsObservations& obs, const GreyBasis& two, const LobeRows& r, const Vec3& start,
+                   double* sse_out) {
+  return CompassSearch(start, [&](const Vec3& m) { return OneLobeFit(obs, two, r, m); }, 120, kOneLobeTurn, sse_out);
+}
 
 }  // namespace
 
@@ -627,10 +661,10 @@ Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_
     std::vector<double> rel(probe.size(), 0.0);
     ParallelFor(long(probe.size()), o.threads, [&](long k) {
       const LobeRows& r = probe_rows[k];
-      if (r.light.size() < 8) return;
+      if (r.light.size() < kMinLobeRows) return;
       double yy = 0, sse = 0;
       for (double v : r.value) yy += v * v;
-      OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[probe[k]], obs.width), &sse, kOneLobeChoiceTurn);
+      OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[probe[k]], obs.width), &sse);
       rel[k] = yy > 0 ? sse / yy : 0.0;
     }, 16);
     for (double e : rel) total[j] += e;
@@ -644,9 +678,11 @@ Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_
   Progress bar("one-lobe normals", long(subset.size()), true);
   ParallelFor(long(subset.size()), o.threads, [&](long k) {
     const long p = subset[k];
-    const LobeRows r = OneLobeRows(obs, p, ShadowRow(shadowed, p, obs.lights));
-    if (r.light.size() >= 8) {
-      const Vec3 n = OneLobeSearch(obs, two, r, NormalAt(normals_cam, obs.pixel[p], obs.width), nullptr);
+    const Vec3 start = NormalAt(normals_cam, obs.pixel[p], obs.width);
+    const uint8_t* sh = ShadowRow(shadowed, p, obs.lights);
+    const LobeRows r = LitLobeRows(obs, two, p, sh, start, OneLobeRows(obs, p, sh));
+    if (r.light.size() >= kMinLobeRows) {
+      const Vec3 n = OneLobeSearch(obs, two, r, start, nullptr);
       const int x = obs.pixel[p] % obs.width, y = obs.pixel[p] / obs.width;
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = float(n[c]);
     }
