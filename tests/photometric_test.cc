@@ -337,6 +337,22 @@ TEST(Photometric, LambertianNormalsAndDictionaryFitRecoverClosedFormPixels) {
               0.3);
 }
 
+// A wall beside every pixel: the lights with x >= 0.15 black out (their
+// count in *hidden); returns which photos are in its cast shadow.
+std::vector<uint8_t> HideLightsBehindWall(PsObservations* obs, int* hidden) {
+  std::vector<uint8_t> shadowed(size_t(obs->P()) * obs->lights, 0);
+  *hidden = 0;
+  for (int l = 0; l < obs->lights; ++l) {
+    if (obs->to_light[l].x() < 0.15) continue;
+    ++*hidden;
+    for (long p = 0; p < obs->P(); ++p) {
+      shadowed[size_t(p) * obs->lights + l] = 1;
+      for (int c = 0; c < 3; ++c) obs->value[obs->At(p, l) + c] = 0.0f;
+    }
+  }
+  return shadowed;
+}
+
 // A wall beside the pixels hides the lights on one side, as in a concavity:
 // more than the darkest quarter of the photos are black, so the
 // interquartile fit keeps some and leans away from the wall. Told which
@@ -347,16 +363,8 @@ TEST(Photometric, LambertianNormalsLeaveOutCastShadows) {
   std::vector<Vec3> normals;
   for (int p = 0; p < 20; ++p) normals.push_back(Vec3(0.2 * std::sin(p), 0.2 * std::cos(1.3 * p), -1).normalized());
   PsObservations obs = SyntheticObservations(normals, std::vector<Rgb>(20, Rgb(0.6, 0.5, 0.4)), 0.0, lobe);
-  std::vector<uint8_t> shadowed(size_t(obs.P()) * obs.lights, 0);
   int hidden = 0;
-  for (int l = 0; l < obs.lights; ++l) {
-    if (obs.to_light[l].x() < 0.15) continue;
-    ++hidden;
-    for (long p = 0; p < obs.P(); ++p) {
-      shadowed[size_t(p) * obs.lights + l] = 1;
-      for (int c = 0; c < 3; ++c) obs.value[obs.At(p, l) + c] = 0.0f;
-    }
-  }
+  const std::vector<uint8_t> shadowed = HideLightsBehindWall(&obs, &hidden);
   ASSERT_GT(hidden, obs.lights * 3 / 10);
   ASSERT_LT(hidden, obs.lights / 2);
   auto mean_error = [&](const Image& n) {
@@ -431,16 +439,8 @@ TEST(Photometric, OneLobeNormalsLeaveOutShadowsTheHeightFieldMissed) {
   const BasisMaterial lobe = DictionaryLobe("specular_ggx_m0.22");
   const std::vector<Vec3> normals = WavyNormals(40, 0.4, 0.35);
   PsObservations obs = SyntheticObservations(normals, std::vector<Rgb>(40, Rgb(0.4, 0.4, 0.4)), 0.08, lobe);
-  std::vector<uint8_t> wall(size_t(obs.P()) * obs.lights, 0);
   int hidden = 0;
-  for (int l = 0; l < obs.lights; ++l) {
-    if (obs.to_light[l].x() < 0.15) continue;
-    ++hidden;
-    for (long p = 0; p < obs.P(); ++p) {
-      wall[size_t(p) * obs.lights + l] = 1;
-      for (int c = 0; c < 3; ++c) obs.value[obs.At(p, l) + c] = 0.0f;
-    }
-  }
+  const std::vector<uint8_t> wall = HideLightsBehindWall(&obs, &hidden);
   ASSERT_GT(hidden, obs.lights * 3 / 10);
   // The start knows the wall (as after the shadow rounds); the search is
   // not told, as where the height field misses a shadow.
