@@ -119,17 +119,19 @@ void SolveWeights(const PsObservations& obs, const std::vector<BasisMaterial>& b
 
 // Normals searched per pixel under a diffuse term plus one specular lobe
 // that the whole object shares, with per-pixel non-negative weights of the
-// two, on each pixel's usable photos outside cast shadows without its
-// darkest quarter (unweighted luminance). The pair is the dictionary's
-// Cook-Torrance lobe and the diffuse (Lambert, or a body under a smooth
-// interface: `one_lobe_diffuse_etas`) with the lowest total relative
-// residual after the search on pixels spread over `where` (searched up to
-// 15 degrees for the choice). A response sharper than the cosine makes a
-// Lambertian fit tilt near-frontal normals too far and grazing ones too
-// little; one shape for the object takes that out, where a shape free per
-// pixel (several lobes mixed) absorbs the tilt instead. A normal moves at
-// most 5 degrees from its start. Only the pixels where `where` (1 channel)
-// is set move; `chosen` gets the pair.
+// two. The pair is the dictionary's Cook-Torrance lobe and the diffuse
+// (Lambert, or a body under a smooth interface: `one_lobe_diffuse_etas`)
+// with the lowest total relative residual after the search on pixels
+// spread over `where`, fitted to each pixel's usable photos outside cast
+// shadows without its darkest quarter (unweighted luminance). The search
+// then fits the photos the chosen pair describes at the start (shadows the
+// height field missed left out: dictionary_fit.cc, LitLobeRows). A
+// response sharper than the cosine makes a Lambertian fit tilt near-frontal
+// normals too far and grazing ones too little; one shape for the object
+// takes that out, where a shape free per pixel (several lobes mixed)
+// absorbs the tilt instead. A normal moves at most 15 degrees from its
+// start. Only the pixels where `where` (1 channel) is set move; `chosen`
+// gets the pair.
 Image RefineNormalsUnderOneLobe(const PsObservations& obs, const Image& normals_cam,
                                 const std::vector<uint8_t>& shadowed, const DictionaryFitOptions& o,
                                 const Image& where, std::string* chosen);
