@@ -160,8 +160,10 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     // out beside the candidate stops at its next step.
     std::atomic<bool> control_unneeded{false};
     // The refined candidate's held-out RMSE, its drop below the best so far
-    // without the worst 2 % of texels, and the paired z of that drop.
+    // without the worst 2 % of texels, the paired z of that drop, and
+    // whether both clear their thresholds (the candidate's own test).
     double h = 0, drop = 0, z = 0;
+    bool own_test = false;
     auto work_candidate = [&] {
       SplitCluster(cl, k, side);
       if (o.SecondsLeft() <= 0) return (void)(control_unneeded = true);  // undone at the check below
@@ -174,8 +176,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       drop = TrimmedDrop(states[best_state].texel_sse, texel_sse);
       z = std::max(PairedZ(states[best_state].texel_sse, texel_sse),
                    BoundedPairedZ(states[best_state].texel_sse, texel_sse));
-      if (evaluated.count(PartitionKey(cl.assign())) || !(drop >= o.min_improvement && z >= o.min_z))
-        control_unneeded = true;
+      own_test = drop >= o.min_improvement && z >= o.min_z;
+      if (evaluated.count(PartitionKey(cl.assign())) || !own_test) control_unneeded = true;
     };
     auto work_control = [&](Clustering& c) {
       SplitCluster(c, k, control_side, &control_unneeded);
@@ -227,7 +229,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     }
     step_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start).count();
     const double total_drop = 1.0 - (h * h) / std::max(1e-300, best * best);
-    bool passes = drop >= o.min_improvement && z >= o.min_z;
+    bool passes = own_test;
     bool interleaved = false;  // fails the coherence test: no look-ahead past it
     std::string control_note;
     if (passes && o.force_clusters == 0 && o.min_split_coherence > 0) {
