@@ -444,6 +444,45 @@ TEST(Weights, FollowAWideBlendNextToAHighlight) {
   EXPECT_LT(WeightError(after, mix), 0.5 * WeightError(before, mix));
 }
 
+// A mirror-like material beside a bright one: the fits see the mirror's
+// texels nearly black, except where they reflect the lit neighbour (light
+// no material describes). Least-squares weights let the neighbour's
+// material leak into those texels, which then glow in every relit view; the
+// robust passes (WeightModel::robust_passes) give those samples little
+// weight. Texels without such samples keep their weights.
+TEST(Weights, ReflectionsOfANeighbourDoNotLeakItsMaterialIntoAMirror) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.005, 0.005, 0.005), Glossy(0.5, 0.5, 20)};
+  const int n = 40;
+  std::vector<std::vector<double>> mix;
+  for (int t = 0; t < n; ++t) mix.push_back(t < n / 2 ? std::vector<double>{1.0, 0.0} : std::vector<double>{0.0, 1.0});
+  SampleSet s = MakeMixedSamples(truth, mix, 83);
+  // Every sixth sample of a mirror texel reflects the neighbour: a bright
+  // value the mirror's (dark, rough) model never predicts.
+  for (int t = 0; t < n / 2; ++t)
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; i += 6)
+      for (int c = 0; c < 3; ++c) s.y[c][i] += 0.3f;
+  ReconstructOptions o = Quiet();
+  Clustering cl(s, LineAtlas(n), o);
+  for (int k = 0; k < 2; ++k) cl.SetBasis(k, truth[k]);
+  for (int t = 0; t < n; ++t) cl.assign()[t] = t >= n / 2;
+  WeightModel robust;  // the defaults
+  robust.unit_sum_samples = 1000;
+  robust.radius = 8;
+  WeightModel plain = robust;
+  plain.robust_passes = 0;
+  std::vector<float> w_plain, w_robust;
+  cl.FinalWeights(plain, &w_plain, nullptr);
+  cl.FinalWeights(robust, &w_robust, nullptr);
+  auto leak = [&](const std::vector<float>& w) {  // the glossy weight inside the mirror
+    double sum = 0;
+    for (int t = 0; t < n / 2; ++t) sum += w[(t * 2 + 1) * 3];
+    return sum / (n / 2);
+  };
+  EXPECT_GT(leak(w_plain), 0.02);  // the leak is there without the robust passes
+  EXPECT_LT(leak(w_robust), 0.25 * leak(w_plain));
+  for (int t = n / 2; t < n; ++t) EXPECT_NEAR(w_robust[(t * 2 + 1) * 3], 1.0, 0.02) << "texel " << t;
+}
+
 // Region-interior smoothing: texels whose neighbours all share their label
 // move towards the mean of the interior ones among them; border and
 // blend-zone texels, and texels without weights, keep theirs.
@@ -567,7 +606,9 @@ TEST(Weights, UnitSumIsChosenByHeldOutSamplesAndMatchesTheTruth) {
       EXPECT_LT(WeightError(w_chosen, mix), 0.5 * WeightError(w_other, mix));  // what the tie would have cost
     } else {
       EXPECT_GT(chosen.unit_sum_samples, 0.0);
-      EXPECT_LT(WeightError(w_chosen, mix), 0.5 * WeightError(w_other, mix));
+      // (The robust passes narrowed this margin: free brightness 0.0166 ->
+      // 0.0089, the unit sum 0.0057 -> 0.0050.)
+      EXPECT_LT(WeightError(w_chosen, mix), 0.6 * WeightError(w_other, mix));
     }
   }
 }

@@ -53,6 +53,20 @@ struct WeightModel {
   // brightness of its own. 0: free brightness (the cluster's material at the
   // brightness that fits the texel best is the prior's target).
   double unit_sum_samples = 0.0;
+  // Robust re-weighting (Cauchy IRLS) after the least-squares solve: each
+  // training sample's weight is 1 / (1 + r^2 / s^2), s = robust_c x the
+  // texel's median absolute residual (as a standard deviation, x 1.4826),
+  // floored at 1 % of its RMS value. Light that no mix of the materials
+  // describes (a mirror-like texel reflecting a lit neighbour, indirect
+  // light the removal missed) otherwise buys the neighbour's material a
+  // weight in the texel, which then glows in every relit view.
+  //   robust_passes  re-weighted solves at most (0 = least squares)   [0, 10]
+  //   robust_c       Cauchy scale in robust standard deviations         > 0
+  //   robust_skip    no re-weighted solve while every sample keeps more
+  //                  than this weight (most texels: nothing to discount) [0, 1)
+  int robust_passes = 5;
+  double robust_c = 1.5;
+  double robust_skip = 0.5;
   // Held-out errors on this display scale (stats.h; null or empty: linear).
   // Only the scoring changes: the weights are fitted on linear samples.
   const std::vector<Rgb>* display = nullptr;

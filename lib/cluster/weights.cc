@@ -56,92 +56,131 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
     // Texels with too few training samples would overfit K weights; they
     // are scored only when everything is fitted on all samples (final weights).
     if (e == b || (!fit_on_all && !usable_[t])) return;
-    Eigen::MatrixXd AtA[3], Atb[3];
-    for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(K, K), Atb[c] = Eigen::MatrixXd::Zero(K, 1);
-    for (int64_t i = b; i < e; ++i) {
-      if (!fit_on_all && holdout_[i]) continue;
-      for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < K; ++k) {
-          const double pk = pred_[k][3 * i + c];
-          Atb[c](k) += pk * s_.y[c][i];
-          for (int l = 0; l <= k; ++l) AtA[c](k, l) += pk * pred_[l][3 * i + c];
-        }
-    }
-    // Prior: the texel is its cluster's material at the brightness that fits
-    // it best. Without it, K free weights on a handful of samples overfit
-    // (seen: held-out error rising with K).
-    Eigen::VectorXd w0 = Eigen::VectorXd::Zero(K);
-    const int k0 = std::clamp(assign_[t], 0, K - 1);
-    double yp = 0, pp = 0;
-    int64_t nfit = 0;
-    for (int64_t i = b; i < e; ++i) {
-      if (!fit_on_all && holdout_[i]) continue;
-      ++nfit;
-      for (int c = 0; c < 3; ++c) yp += pred_[k0][3 * i + c] * s_.y[c][i], pp += Sq(pred_[k0][3 * i + c]);
-    }
-    w0[k0] = pp > 0 && !(m.unit_sum_samples > 0) ? BrightnessScale(yp, pp) : 1.0;
-    // Second pass: the prior is the mean of the neighbours' first-pass
-    // weights (a smoothness prior). Neighbours without first-pass weights
-    // (too few training samples when fitting on the training set) do not
-    // count: their zeros would pull the texel towards black.
-    Eigen::VectorXd w0c[3] = {w0, w0, w0};
-    double prior_samples = m.prior_samples;
-    if (smooth_from) {
-      int n = 0;
-      for (int c = 0; c < 3; ++c) w0c[c].setZero();
-      for (int u : neighbours_[t]) {
-        if (train_count_[u] == 0 || (!fit_on_all && !usable_[u])) continue;
-        ++n;
-        for (int k = 0; k < K; ++k)
-          for (int c = 0; c < 3; ++c) w0c[c][k] += (*smooth_from)[(size_t(u) * K + k) * 3 + c];
-      }
-      if (n > 0) {
-        for (int c = 0; c < 3; ++c) w0c[c] /= n;
-        prior_samples = m.smooth_samples;
-      } else {
-        w0c[0] = w0c[1] = w0c[2] = w0;
-      }
-    }
-    const double per_sample = 3.0 * std::max<int64_t>(1, nfit);
-    Eigen::VectorXd lambda(K);
-    double trace = 0;
-    for (int c = 0; c < 3; ++c) trace += AtA[c].trace();
-    for (int k = 0; k < K; ++k) {
-      const double own = AtA[0](k, k) + AtA[1](k, k) + AtA[2](k, k);
-      lambda[k] = prior_samples * (m.per_material_prior ? own : trace / K) / per_sample + 1e-12;
-    }
-    const Eigen::VectorXd mean_target = (w0c[0] + w0c[1] + w0c[2]) / 3.0;
-    // The unit-sum prior mu (sum_k w_k - 1)^2 per channel (the materials
-    // that may not mix drop out below with their rows and columns).
-    const double mu = m.unit_sum_samples * trace / K / per_sample;
-    for (int c = 0; c < 3; ++c) {
-      AtA[c].diagonal() += lambda;
-      Atb[c].col(0) += lambda.cwiseProduct(m.per_channel ? w0c[c] : mean_target);
-      if (mu > 0) AtA[c].array() += mu, Atb[c].array() += mu;
-    }
-    // Only materials of the clusters within `m.radius` texels mix: inside
-    // a region one material (at a free brightness), in a blend zone or at a
-    // junction all the materials around it. Free mixing of all K on a few
-    // samples extrapolates badly to unseen light/view pairs (seen: false
-    // highlights).
-    for (int k = 0; k < K; ++k)
-      if (k != k0 && dist[size_t(t) * K + k] > m.radius)
-        for (int c = 0; c < 3; ++c) {
-          AtA[c].row(k).setZero();
-          AtA[c].col(k).setZero();
-          AtA[c](k, k) = 1.0;
-          Atb[c](k) = 0.0;
-        }
+    std::vector<double> omega(size_t(e - b), 1.0);
     Eigen::VectorXd w[3];
-    if (m.per_channel) {
-      for (int c = 0; c < 3; ++c) {
-        AtA[c].triangularView<Eigen::StrictlyUpper>() = AtA[c].transpose();
-        w[c] = NnlsNormal(AtA[c], Atb[c].col(0));
+    for (int pass = 0; pass <= m.robust_passes; ++pass) {
+      Eigen::MatrixXd AtA[3], Atb[3];
+      for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(K, K), Atb[c] = Eigen::MatrixXd::Zero(K, 1);
+      for (int64_t i = b; i < e; ++i) {
+        if (!fit_on_all && holdout_[i]) continue;
+        const double om = omega[i - b];
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < K; ++k) {
+            const double pk = om * pred_[k][3 * i + c];
+            Atb[c](k) += pk * s_.y[c][i];
+            for (int l = 0; l <= k; ++l) AtA[c](k, l) += pk * pred_[l][3 * i + c];
+          }
       }
-    } else {
-      Eigen::MatrixXd A = AtA[0] + AtA[1] + AtA[2];
-      A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
-      w[0] = w[1] = w[2] = NnlsNormal(A, (Atb[0] + Atb[1] + Atb[2]).col(0));
+      // Prior: the texel is its cluster's material at the brightness that fits
+      // it best. Without it, K free weights on a handful of samples overfit
+      // (seen: held-out error rising with K).
+      Eigen::VectorXd w0 = Eigen::VectorXd::Zero(K);
+      const int k0 = std::clamp(assign_[t], 0, K - 1);
+      double yp = 0, pp = 0;
+      int64_t nfit = 0;
+      for (int64_t i = b; i < e; ++i) {
+        if (!fit_on_all && holdout_[i]) continue;
+        ++nfit;
+        const double om = omega[i - b];
+        for (int c = 0; c < 3; ++c) yp += om * pred_[k0][3 * i + c] * s_.y[c][i], pp += om * Sq(pred_[k0][3 * i + c]);
+      }
+      w0[k0] = pp > 0 && !(m.unit_sum_samples > 0) ? BrightnessScale(yp, pp) : 1.0;
+      // Second pass: the prior is the mean of the neighbours' first-pass
+      // weights (a smoothness prior). Neighbours without first-pass weights
+      // (too few training samples when fitting on the training set) do not
+      // count: their zeros would pull the texel towards black.
+      Eigen::VectorXd w0c[3] = {w0, w0, w0};
+      double prior_samples = m.prior_samples;
+      if (smooth_from) {
+        int n = 0;
+        for (int c = 0; c < 3; ++c) w0c[c].setZero();
+        for (int u : neighbours_[t]) {
+          if (train_count_[u] == 0 || (!fit_on_all && !usable_[u])) continue;
+          ++n;
+          for (int k = 0; k < K; ++k)
+            for (int c = 0; c < 3; ++c) w0c[c][k] += (*smooth_from)[(size_t(u) * K + k) * 3 + c];
+        }
+        if (n > 0) {
+          for (int c = 0; c < 3; ++c) w0c[c] /= n;
+          prior_samples = m.smooth_samples;
+        } else {
+          w0c[0] = w0c[1] = w0c[2] = w0;
+        }
+      }
+      const double per_sample = 3.0 * std::max<int64_t>(1, nfit);
+      Eigen::VectorXd lambda(K);
+      double trace = 0;
+      for (int c = 0; c < 3; ++c) trace += AtA[c].trace();
+      for (int k = 0; k < K; ++k) {
+        const double own = AtA[0](k, k) + AtA[1](k, k) + AtA[2](k, k);
+        lambda[k] = prior_samples * (m.per_material_prior ? own : trace / K) / per_sample + 1e-12;
+      }
+      const Eigen::VectorXd mean_target = (w0c[0] + w0c[1] + w0c[2]) / 3.0;
+      // The unit-sum prior mu (sum_k w_k - 1)^2 per channel (the materials
+      // that may not mix drop out below with their rows and columns).
+      const double mu = m.unit_sum_samples * trace / K / per_sample;
+      for (int c = 0; c < 3; ++c) {
+        AtA[c].diagonal() += lambda;
+        Atb[c].col(0) += lambda.cwiseProduct(m.per_channel ? w0c[c] : mean_target);
+        if (mu > 0) AtA[c].array() += mu, Atb[c].array() += mu;
+      }
+      // Only materials of the clusters within `m.radius` texels mix: inside
+      // a region one material (at a free brightness), in a blend zone or at a
+      // junction all the materials around it. Free mixing of all K on a few
+      // samples extrapolates badly to unseen light/view pairs (seen: false
+      // highlights).
+      for (int k = 0; k < K; ++k)
+        if (k != k0 && dist[size_t(t) * K + k] > m.radius)
+          for (int c = 0; c < 3; ++c) {
+            AtA[c].row(k).setZero();
+            AtA[c].col(k).setZero();
+            AtA[c](k, k) = 1.0;
+            Atb[c](k) = 0.0;
+          }
+      double moved = 0;
+      if (m.per_channel) {
+        for (int c = 0; c < 3; ++c) {
+          AtA[c].triangularView<Eigen::StrictlyUpper>() = AtA[c].transpose();
+          Eigen::VectorXd wc = NnlsNormal(AtA[c], Atb[c].col(0));
+          if (pass > 0) moved = std::max(moved, (wc - w[c]).cwiseAbs().maxCoeff());
+          w[c] = std::move(wc);
+        }
+      } else {
+        Eigen::MatrixXd A = AtA[0] + AtA[1] + AtA[2];
+        Eigen::VectorXd w_old = w[0];
+        A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
+        w[0] = w[1] = w[2] = NnlsNormal(A, (Atb[0] + Atb[1] + Atb[2]).col(0));
+        if (pass > 0) moved = (w[0] - w_old).cwiseAbs().maxCoeff();
+      }
+      // Converged (weights settle to well below a display step).
+      if (pass == m.robust_passes || (pass > 0 && moved < 1e-3)) break;
+      // Robust pass (Cauchy IRLS): samples that no mix of the materials
+      // explains (light the fit does not model, e.g. a mirror-like texel
+      // reflecting a lit neighbour) lose weight against the texel's typical
+      // residual.
+      std::vector<double> r2;
+      double yy = 0;
+      for (int64_t i = b; i < e; ++i) {
+        if (!fit_on_all && holdout_[i]) continue;
+        double d2 = 0;
+        for (int c = 0; c < 3; ++c) {
+          double q = 0;
+          for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
+          d2 += Sq(q - s_.y[c][i]);
+          yy += Sq(s_.y[c][i]);
+        }
+        omega[i - b] = d2;
+        r2.push_back(d2);
+      }
+      if (r2.empty()) break;
+      std::nth_element(r2.begin(), r2.begin() + r2.size() / 2, r2.end());
+      const double scale2 = Sq(m.robust_c * 1.4826) * r2[r2.size() / 2] + Sq(0.01) * yy / r2.size() + 1e-30;
+      double least = 1.0;
+      for (int64_t i = b; i < e; ++i)
+        if (fit_on_all || !holdout_[i]) least = std::min(least, omega[i - b] = 1.0 / (1.0 + omega[i - b] / scale2));
+      // Every sample within the scale's reach: the re-weighted solve would
+      // barely move (and most texels are like this).
+      if (least > m.robust_skip) break;
     }
     double err = 0;
     int64_t n = 0;
