@@ -90,6 +90,14 @@ Solution Solve(const ModelSpec& spec, const std::vector<ParamInfo>& info, const 
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // <= 24 parameters: J^T J is tiny
   so.max_num_iterations = max_iterations;
+  // A trial step into a region where the model overflows (a Lafortune
+  // exponent or a near-zero roughness) is an invalid step; Ceres then
+  // shrinks the trust region and tries again, but by default fails the
+  // whole solve after 5 in a row. From a start far from the data it can
+  // take more shrinks to get back to finite costs (seen: a split's
+  // lafortune-1 fit on the generalization bunny, --seed 3, which aborted
+  // the reconstruction).
+  so.max_num_consecutive_invalid_steps = 30;
   so.function_tolerance = options.function_tolerance;
   so.num_threads = ResolveThreads(options.threads);
   so.logging_type = ceres::SILENT;
