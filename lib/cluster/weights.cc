@@ -56,26 +56,38 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
     // Texels with too few training samples would overfit K weights; they
     // are scored only when everything is fitted on all samples (final weights).
     if (e == b || (!fit_on_all && !usable_[t])) return;
+    const int k0 = std::clamp(assign_[t], 0, K - 1);
+    // Only materials of the clusters within `m.radius` texels mix: inside
+    // a region one material (at a free brightness), in a blend zone or at a
+    // junction all the materials around it. Free mixing of all K on a few
+    // samples extrapolates badly to unseen light/view pairs (seen: false
+    // highlights). The others' normal equations are replaced below; only
+    // their diagonals (the trace prior's scale) are accumulated.
+    std::vector<int> mixing;
+    for (int k = 0; k < K; ++k)
+      if (k == k0 || dist[size_t(t) * K + k] <= m.radius) mixing.push_back(k);
     std::vector<double> omega(size_t(e - b), 1.0);
     Eigen::VectorXd w[3];
+    Eigen::MatrixXd AtA[3], Atb[3];
     for (int pass = 0; pass <= m.robust_passes; ++pass) {
-      Eigen::MatrixXd AtA[3], Atb[3];
-      for (int c = 0; c < 3; ++c) AtA[c] = Eigen::MatrixXd::Zero(K, K), Atb[c] = Eigen::MatrixXd::Zero(K, 1);
+      for (int c = 0; c < 3; ++c) AtA[c].setZero(K, K), Atb[c].setZero(K, 1);
       for (int64_t i = b; i < e; ++i) {
         if (!fit_on_all && holdout_[i]) continue;
         const double om = omega[i - b];
-        for (int c = 0; c < 3; ++c)
-          for (int k = 0; k < K; ++k) {
+        for (int c = 0; c < 3; ++c) {
+          for (int k = 0; k < K; ++k) AtA[c](k, k) += om * pred_[k][3 * i + c] * pred_[k][3 * i + c];
+          for (size_t a = 0; a < mixing.size(); ++a) {
+            const int k = mixing[a];
             const double pk = om * pred_[k][3 * i + c];
             Atb[c](k) += pk * s_.y[c][i];
-            for (int l = 0; l <= k; ++l) AtA[c](k, l) += pk * pred_[l][3 * i + c];
+            for (size_t j = 0; j < a; ++j) AtA[c](k, mixing[j]) += pk * pred_[mixing[j]][3 * i + c];
           }
+        }
       }
       // Prior: the texel is its cluster's material at the brightness that fits
       // it best. Without it, K free weights on a handful of samples overfit
       // (seen: held-out error rising with K).
       Eigen::VectorXd w0 = Eigen::VectorXd::Zero(K);
-      const int k0 = std::clamp(assign_[t], 0, K - 1);
       double yp = 0, pp = 0;
       int64_t nfit = 0;
       for (int64_t i = b; i < e; ++i) {
@@ -124,13 +136,8 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
         Atb[c].col(0) += lambda.cwiseProduct(m.per_channel ? w0c[c] : mean_target);
         if (mu > 0) AtA[c].array() += mu, Atb[c].array() += mu;
       }
-      // Only materials of the clusters within `m.radius` texels mix: inside
-      // a region one material (at a free brightness), in a blend zone or at a
-      // junction all the materials around it. Free mixing of all K on a few
-      // samples extrapolates badly to unseen light/view pairs (seen: false
-      // highlights).
       for (int k = 0; k < K; ++k)
-        if (k != k0 && dist[size_t(t) * K + k] > m.radius)
+        if (std::find(mixing.begin(), mixing.end(), k) == mixing.end())
           for (int c = 0; c < 3; ++c) {
             AtA[c].row(k).setZero();
             AtA[c].col(k).setZero();
