@@ -66,8 +66,32 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
     std::vector<int> mixing;
     for (int k = 0; k < K; ++k)
       if (k == k0 || dist[size_t(t) * K + k] <= m.radius) mixing.push_back(k);
+    // Second pass: the prior is the mean of the neighbours' first-pass
+    // weights (a smoothness prior). Neighbours without first-pass weights
+    // (too few training samples when fitting on the training set) do not
+    // count: their zeros would pull the texel towards black. Without any,
+    // the prior stays the texel's own cluster material.
+    int neighbours = 0;
+    Eigen::VectorXd neighbour_mean[3];
+    if (smooth_from) {
+      for (int c = 0; c < 3; ++c) neighbour_mean[c] = Eigen::VectorXd::Zero(K);
+      for (int u : neighbours_[t]) {
+        if (train_count_[u] == 0 || (!fit_on_all && !usable_[u])) continue;
+        ++neighbours;
+        for (int k = 0; k < K; ++k)
+          for (int c = 0; c < 3; ++c) neighbour_mean[c][k] += (*smooth_from)[(size_t(u) * K + k) * 3 + c];
+      }
+      if (neighbours > 0)
+        for (int c = 0; c < 3; ++c) neighbour_mean[c] /= neighbours;
+    }
     std::vector<double> omega(size_t(e - b), 1.0);
     Eigen::VectorXd w[3];
+    // The mixture's prediction of sample i, channel c, under the weights w.
+    auto mixed = [&](int64_t i, int c) {
+      double q = 0;
+      for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
+      return q;
+    };
     Eigen::MatrixXd AtA[3], Atb[3];
     for (int pass = 0; pass <= m.robust_passes; ++pass) {
       for (int c = 0; c < 3; ++c) AtA[c].setZero(K, K), Atb[c].setZero(K, 1);
@@ -97,27 +121,11 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
         for (int c = 0; c < 3; ++c) yp += om * pred_[k0][3 * i + c] * s_.y[c][i], pp += om * Sq(pred_[k0][3 * i + c]);
       }
       w0[k0] = pp > 0 && !(m.unit_sum_samples > 0) ? BrightnessScale(yp, pp) : 1.0;
-      // Second pass: the prior is the mean of the neighbours' first-pass
-      // weights (a smoothness prior). Neighbours without first-pass weights
-      // (too few training samples when fitting on the training set) do not
-      // count: their zeros would pull the texel towards black.
       Eigen::VectorXd w0c[3] = {w0, w0, w0};
       double prior_samples = m.prior_samples;
-      if (smooth_from) {
-        int n = 0;
-        for (int c = 0; c < 3; ++c) w0c[c].setZero();
-        for (int u : neighbours_[t]) {
-          if (train_count_[u] == 0 || (!fit_on_all && !usable_[u])) continue;
-          ++n;
-          for (int k = 0; k < K; ++k)
-            for (int c = 0; c < 3; ++c) w0c[c][k] += (*smooth_from)[(size_t(u) * K + k) * 3 + c];
-        }
-        if (n > 0) {
-          for (int c = 0; c < 3; ++c) w0c[c] /= n;
-          prior_samples = m.smooth_samples;
-        } else {
-          w0c[0] = w0c[1] = w0c[2] = w0;
-        }
+      if (neighbours > 0) {
+        for (int c = 0; c < 3; ++c) w0c[c] = neighbour_mean[c];
+        prior_samples = m.smooth_samples;
       }
       const double per_sample = 3.0 * std::max<int64_t>(1, nfit);
       Eigen::VectorXd lambda(K);
@@ -171,9 +179,7 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
         if (!fit_on_all && holdout_[i]) continue;
         double d2 = 0;
         for (int c = 0; c < 3; ++c) {
-          double q = 0;
-          for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
-          d2 += Sq(q - s_.y[c][i]);
+          d2 += Sq(mixed(i, c) - s_.y[c][i]);
           yy += Sq(s_.y[c][i]);
         }
         omega[i - b] = d2;
@@ -194,8 +200,7 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
     for (int64_t i = b; i < e; ++i) {
       if (!eval_on_all && !holdout_[i]) continue;
       for (int c = 0; c < 3; ++c) {
-        double q = 0;
-        for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
+        const double q = mixed(i, c);
         if (shown) err += Sq(Shown(q, *m.display, s_, i, c) - Shown(s_.y[c][i], *m.display, s_, i, c));
         else err += (q - s_.y[c][i]) * (q - s_.y[c][i]);
         ++n;
