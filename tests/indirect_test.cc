@@ -8,6 +8,7 @@
 
 #include "atlas/atlas.h"
 #include "indirect/interreflection.h"
+#include "brdf/model.h"
 #include "core/error.h"
 #include "raytrace/sphere_mesh.h"
 
@@ -103,6 +104,87 @@ TEST(Interreflection, ConvexSphereUnchanged) {
   const InterreflectionReport rep = RemoveInterreflection(s, &g, o);
   EXPECT_EQ(rep.removed_share, 0.0);
   EXPECT_EQ(g.samples.y[0], before);
+}
+
+// The second pass (TraceIndirectWithMaterial) inside the closed sphere lit
+// from its centre: the walls (Lambertian, rho) send the same radiance
+// L_w = rho/pi E (1 + rho) (two bounces) from every direction, so a texel
+// receives a(wo) L_w, with a(wo) its own BRDF's directional albedo. A small
+// glossy patch gets its glossy albedo, not the walls' rho: the receiver's
+// BRDF, frame, view direction and units all enter.
+TEST(Interreflection, MaterialTraceGivesEachTexelItsOwnDirectionalAlbedo) {
+  const double rho = 0.5, intensity = 3.0;
+  const Mesh mesh = UnitSphere(/*inwards=*/true);
+  const Scene s = CentreLit(Vec3::Zero(), intensity);
+  GatherResult g = OneSamplePerTexel(mesh, s, [&](double geom) { return rho / kPi * geom; });
+  ASSERT_GT(g.samples.size(), 500);
+  Material m;
+  m.mesh = g.mesh;
+  m.width = g.atlas.width, m.height = g.atlas.height;
+  BasisMaterial wall, glossy;
+  wall.name = "wall", glossy.name = "glossy";
+  wall.spec = ModelSpec::FromLabel("lambert");
+  wall.params = {rho, rho, rho};
+  glossy.spec = ModelSpec::FromLabel("cook_torrance-ggx-nofresnel");
+  glossy.params = glossy.spec.InitialParams();
+  const std::vector<ParamInfo> info = glossy.spec.Params();
+  for (size_t i = 0; i < info.size(); ++i) {
+    if (info[i].name.rfind("rd_", 0) == 0) glossy.params[i] = 0.1;
+    if (info[i].name.rfind("rs_", 0) == 0) glossy.params[i] = 0.8;
+    if (info[i].name == "roughness") glossy.params[i] = 0.2;
+  }
+  m.basis = {wall, glossy};
+  m.weights = {Image(m.width, m.height, 3, 0.0f), Image(m.width, m.height, 3, 0.0f)};
+  std::vector<char> patch(g.atlas.texels.size());
+  for (size_t t = 0; t < g.atlas.texels.size(); ++t) {
+    const Texel& tx = g.atlas.texels[t];
+    patch[t] = tx.position.z() < -0.95;  // ~2.5 % of the wall: the walls' light stays uniform
+    for (int c = 0; c < 3; ++c) m.weights[patch[t] ? 1 : 0].at(tx.x, tx.y, c) = 1.0f;
+  }
+  InterreflectionOptions o;
+  o.progress = false;
+  o.refit_paths = 64;
+  const std::vector<Rgb> e = TraceIndirectWithMaterial(s, g, m, o);
+  ASSERT_EQ(int64_t(e.size()), g.samples.size());
+  // The glossy BRDF's directional albedo for a view at angle theta_o, by quadrature.
+  auto albedo = [&](double cos_o) {
+    const Vec3 wo(std::sqrt(std::max(0.0, 1 - cos_o * cos_o)), 0, cos_o);
+    const int n_theta = 128, n_phi = 128;
+    double sum = 0;
+    for (int i = 0; i < n_theta; ++i)
+      for (int j = 0; j < n_phi; ++j) {
+        const double ct = (i + 0.5) / n_theta, st = std::sqrt(1 - ct * ct), phi = 2 * kPi * (j + 0.5) / n_phi;
+        const Vec3 wi(st * std::cos(phi), st * std::sin(phi), ct);
+        sum += EvalModelD(glossy.spec, glossy.params.data(), wi, wo)[1] * ct;  // d omega = d cos d phi
+      }
+    return sum * 2 * kPi / (n_theta * n_phi);
+  };
+  const Vec3 eye = s.images[0].cam_from_world.CentreInWorld();
+  const double walls = rho / kPi * intensity * (1 + rho);
+  double sum_patch = 0, sum_wall = 0, a_mean = 0;
+  int n_patch = 0, n_wall = 0;
+  for (int64_t i = 0; i < g.samples.size(); ++i) {
+    const Texel& tx = g.atlas.texels[g.samples.texel[i]];
+    if (patch[g.samples.texel[i]]) {
+      const double a = albedo(tx.normal.dot((eye - tx.position).normalized()));
+      sum_patch += e[i][1] / (a * walls), a_mean += a, ++n_patch;
+    } else {
+      sum_wall += e[i][1] / (rho * walls), ++n_wall;
+    }
+  }
+  ASSERT_GT(n_patch, 10);
+  a_mean /= n_patch;
+  std::printf("indirect over the closed form: walls %.4f (%d texels), glossy patch %.4f (%d texels, albedo %.3f)\n",
+              sum_wall / n_wall, n_wall, sum_patch / n_patch, n_patch, a_mean);
+  EXPECT_NEAR(sum_wall / n_wall, 1.0, 0.05);
+  EXPECT_NEAR(sum_patch / n_patch, 1.0, 0.07);
+  EXPECT_GT(std::abs(a_mean - rho), 0.1);  // the patch's answer is not the walls' one
+  // A convex sphere sees nothing of itself: nothing to trace.
+  const Mesh out = UnitSphere(false);
+  GatherResult gc = OneSamplePerTexel(out, CentreLit(Vec3(2, 3, 4), 10.0), [](double geom) { return 0.2 * geom; });
+  Material mc = m;
+  mc.mesh = gc.mesh;
+  for (const Rgb& v : TraceIndirectWithMaterial(CentreLit(Vec3(2, 3, 4), 10.0), gc, mc, o)) EXPECT_EQ(v.sum(), 0.0);
 }
 
 TEST(Interreflection, OffLeavesSamplesAndBadOptionsAreNamed) {

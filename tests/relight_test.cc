@@ -11,6 +11,7 @@
 #include "atlas/atlas.h"
 #include "core/error.h"
 #include "raytrace/sphere_mesh.h"
+#include "relight/light_paths.h"
 #include "relight/relight.h"
 
 namespace svbrdf {
@@ -424,6 +425,50 @@ TEST(Relight, BouncesInsideASphereMatchTheClosedForm) {
     const double expected = rho / kPi * intensity / (radius * radius) * series;
     EXPECT_NEAR(sum / n, expected, 0.01 * expected) << bounces << " bounces";
   }
+}
+
+// A glossy point inside a white room: the mixture directions (GlossyMixture)
+// estimate the same indirect light as cosine-weighted ones, with far less
+// noise, because cosine directions rarely land in a narrow lobe.
+TEST(Relight, GlossyMixtureDirectionsAreUnbiasedAndLessNoisy) {
+  Mesh mesh = Sphere(1.0, Vec3::Zero(), 60);
+  for (Vec3i& f : mesh.faces) std::swap(f[1], f[2]);  // normals inwards
+  if (!mesh.face_uvs.empty())
+    for (Vec3i& f : mesh.face_uvs) std::swap(f[1], f[2]);
+  mesh.ComputeNormals();
+  const Material room = UniformMaterial(mesh, "lambert", {{"rd_r", 0.7}, {"rd_g", 0.7}, {"rd_b", 0.7}});
+  const Material glossy = UniformMaterial(mesh, "cook_torrance-ggx-nofresnel",
+                                          {{"rd_r", 0.02}, {"rd_g", 0.02}, {"rd_b", 0.02}, {"rs_r", 0.9},
+                                           {"rs_g", 0.9}, {"rs_b", 0.9}, {"roughness", 0.08}});
+  RayTracer tracer(mesh);
+  MaterialShader room_shader(room), glossy_shader(glossy);
+  const Light light = PointLight(Vec3(0.5, 0.3, 0.2), 2.0);  // LightPaths keeps a reference
+  const LightPaths paths(tracer, room_shader, light, Rigid3());
+  const Vec3 x(0, 0, -0.99), n(0, 0, 1);  // just inside the (tessellated) wall, facing the room
+  const Frame frame = Frame::FromNormal(n);
+  const Vec3 wo = (Vec3(0.4, 0.0, 0.3) - x).normalized();
+  auto f = [&](const Vec3& wi) { return glossy_shader.Eval(Vec2(0.5, 0.5), frame, wi, wo); };
+  auto leave = [&](const Vec3&) { return Vec3(x + n * LightPaths::kSceneScale); };
+  auto stats = [&](bool mixture, int n_paths, uint64_t seed) {
+    Rng rng(seed);
+    double sum = 0, sum2 = 0;
+    for (int k = 0; k < n_paths; ++k) {
+      const double v = paths.Indirect(frame, f, leave, 1, 1, rng, mixture ? &wo : nullptr)[1];
+      sum += v, sum2 += v * v;
+    }
+    const double mean = sum / n_paths;
+    return std::pair<double, double>(mean, std::sqrt(std::max(0.0, sum2 / n_paths - mean * mean)));
+  };
+  const int kPaths = 200000;
+  const auto [mean_cos, sd_cos] = stats(false, kPaths, 1);
+  const auto [mean_mix, sd_mix] = stats(true, kPaths, 2);
+  ASSERT_GT(mean_cos, 0);
+  const double standard_error = std::sqrt((sd_cos * sd_cos + sd_mix * sd_mix) / kPaths);
+  EXPECT_NEAR(mean_mix, mean_cos, 4 * standard_error) << "the mixture must estimate the same light";
+  EXPECT_LT(standard_error, 0.02 * mean_cos);  // the comparison above is a sharp one
+  EXPECT_LT(sd_mix, 0.5 * sd_cos) << "per-path noise, mixture " << sd_mix << " vs cosine " << sd_cos;
+  // Below-surface mixture directions have no density: the estimate ignores them.
+  EXPECT_EQ(GlossyMixture::Pdf(frame, wo, Vec3(0, 0, -1)), 0.0);
 }
 
 // A convex object cannot light itself: indirect paths leave it.

@@ -89,6 +89,11 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "indirect light removed from the samples before the fits: path-traced bounces over the mesh with a\n"
                 "Lambertian estimate of the material (0 = off); the material records them and relight adds them back");
   c->add_option("--interreflection-paths", job->interreflection.paths, "--interreflection-bounces: paths per sample");
+  c->add_flag("!--no-interreflection-refit", job->interreflection.refit,
+              "skip the second pass: the indirect light traced again with the split search's materials as\n"
+              "receivers (a glossy texel reflects what lies about its mirror direction) before the final fits");
+  c->add_option("--interreflection-refit-paths", job->interreflection.refit_paths,
+                "second pass: paths per sample");
   c->add_option("--seed", job->estimate.seed, "seed of hold-out split and subsampling");
   c->add_option("--normals", job->normals.mode,
                 "per-texel normal refinement: on (kept only if the held-out error drops), off, force")

@@ -19,8 +19,11 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
                     const StageLog& log, SvbrdfEstimate* est);
 }  // namespace
 
-SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
-                              const SampleSet* fit_samples) {
+namespace {
+
+// Steps 1-2, then (unless `search_only`) 3-6.
+SvbrdfEstimate Estimate(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                        const SampleSet* fit_samples, bool search_only) {
   o.Check();
   if (samples.size() == 0) throw Error("reconstruct: no samples");
   Clustering cl(samples, atlas, o);
@@ -62,6 +65,19 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   if (subset && (fit_samples->num_texels != samples.num_texels || fit_samples->size() == 0))
     throw Error(Msg("reconstruct: the fit samples (", fit_samples->size(), " on ", fit_samples->num_texels,
                     " texels) are not a subset of the ", samples.num_texels, " texels' samples"));
+  est.search = {cl.basis(), cl.assign(), search_seconds, {}};
+  if (search_only) {
+    // Mixing weights of the search's materials, for light transport with them
+    // (the interreflection's second pass): blends as wide as the widest
+    // radius allows, a partition of unity; one solve, no choice.
+    const std::vector<WeightModel> models = CandidateWeightModels(o);
+    WeightModel m = models.front();
+    for (const WeightModel& c : models)
+      if (!c.per_channel && c.radius >= m.radius && c.unit_sum_samples >= m.unit_sum_samples) m = c;
+    std::vector<float> residual;
+    cl.FinalWeights(m, &est.search.weights, &residual);
+    return est;
+  }
   if (!subset && !(o.fit.compression > 0)) {
     FinishEstimate(cl, atlas, search_seconds, o.refit_basis_on_weights, true, log, &est);
     return est;
@@ -72,6 +88,39 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
   fit.assign() = cl.assign();
   if (subset) log(Msg("fits and weights on ", fit_samples->size(), " of the ", samples.size(), " samples"));
   FinishEstimate(fit, atlas, search_seconds, o.refit_basis_on_weights, true, log, &est);
+  return est;
+}
+
+}  // namespace
+
+SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                              const SampleSet* fit_samples) {
+  return Estimate(samples, atlas, o, fit_samples, false);
+}
+
+SvbrdfEstimate SearchSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o) {
+  return Estimate(samples, atlas, o, nullptr, true);
+}
+
+SvbrdfEstimate FinishEstimateOnNewSamples(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                                          const SvbrdfEstimate& previous) {
+  o.Check();
+  if (samples.size() == 0) throw Error("reconstruct: no samples");
+  if (previous.search.basis.empty() || int(previous.search.assign.size()) != samples.num_texels)
+    throw Error(Msg("reconstruct: steps 3-6 again need a split search's result on the same ", samples.num_texels,
+                    " texels"));
+  ReconstructOptions linear = o;  // as steps 3-6 of EstimateSvbrdf
+  linear.fit.compression = 0;
+  Clustering cl(samples, atlas, linear);
+  SvbrdfEstimate est;
+  est.history = previous.history;
+  est.states_revisited = previous.states_revisited;
+  est.search = previous.search;
+  const StageLog log(o.progress);
+  for (int k = 0; k < int(previous.search.basis.size()); ++k) cl.SetBasis(k, previous.search.basis[k]);
+  cl.assign() = previous.search.assign;
+  log(Msg("steps 3-6 again on new sample values, from the split search's ", cl.K(), " clusters"));
+  FinishEstimate(cl, atlas, previous.search.seconds, o.refit_basis_on_weights, true, log, &est);
   return est;
 }
 

@@ -246,6 +246,16 @@ struct SvbrdfEstimate {
     double drop = 0, z = 0;
   };
   std::vector<Pruned> pruned;
+  // The split search's result that steps 3-6 started from: its basis
+  // materials, partition and duration (FinishEstimateOnNewSamples), and
+  // from SearchSvbrdf mixing weights of those materials (texel-major
+  // [t][k][c], one solve without a choice of the weight model).
+  struct SearchState {
+    std::vector<BasisMaterial> basis;
+    std::vector<int> assign;
+    double seconds = 0;
+    std::vector<float> weights;
+  } search;
 };
 
 // `fit_samples` (optional, a subset of `samples` on the same atlas): the
@@ -266,6 +276,18 @@ SvbrdfEstimate EstimateSvbrdf(const SampleSet& samples, const Atlas& atlas, cons
 // (normals ↔ materials alternation), at a fraction of a new clustering's cost.
 SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options,
                            const SvbrdfEstimate& previous);
+
+// Steps 1-2 of EstimateSvbrdf alone: the split search's result in
+// `search` (and `history`), no basis or weights yet; FinishEstimateOnNewSamples
+// completes it, on the same samples or on new values of them.
+SvbrdfEstimate SearchSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& options);
+
+// Steps 3-6 of EstimateSvbrdf (model selection, fits, weights, pruning,
+// basis refit) from the split search's result that `previous` recorded
+// (SvbrdfEstimate::search), on the fit samples or on new values of them
+// (the indirect light removed again, interreflection_stage.h).
+SvbrdfEstimate FinishEstimateOnNewSamples(const SampleSet& samples, const Atlas& atlas,
+                                          const ReconstructOptions& options, const SvbrdfEstimate& previous);
 
 // Writes the estimate as a material folder (weights, confidence, material-id,
 // residual maps) for the given mesh (whose UVs the atlas uses).

@@ -18,6 +18,8 @@ namespace svbrdf {
 void InterreflectionOptions::Check() const {
   if (bounces < 0 || bounces > 8) throw Error(Msg("reconstruct: --interreflection-bounces must be in [0, 8], got ", bounces));
   if (paths < 1 || paths > 256) throw Error(Msg("reconstruct: --interreflection-paths must be in [1, 256], got ", paths));
+  if (refit_paths < 1 || refit_paths > 256)
+    throw Error(Msg("reconstruct: --interreflection-refit-paths must be in [1, 256], got ", refit_paths));
 }
 
 std::string InterreflectionReport::Summary() const {
@@ -75,6 +77,29 @@ Material LambertMaterial(const GatherResult& g, const std::vector<Rgb>& rho) {
   return m;
 }
 
+// Texels that see some part of the object (none of a convex one), found
+// with a few cosine-weighted rays each.
+std::vector<char> TexelsThatSeeTheObject(const GatherResult& g, const InterreflectionOptions& o) {
+  const SampleSet& s = g.samples;
+  const RayTracer geometry(g.mesh);
+  std::vector<char> sees_object(s.num_texels, 0);
+  ParallelFor(s.num_texels, o.threads, [&](long t) {
+    if (s.texel_begin[t] == s.texel_begin[t + 1]) return;
+    const Texel& tx = g.atlas.texels[t];
+    const Frame frame = Frame::FromNormalTangent(tx.normal, tx.tangent);
+    constexpr int kSide = 6;  // 36 stratified directions
+    Rng rng(StreamSeed(o.seed, uint64_t(t), 1));
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    for (int k = 0; k < kSide * kSide && !sees_object[t]; ++k) {
+      const double u1 = (k / kSide + u01(rng)) / kSide, u2 = (k % kSide + u01(rng)) / kSide;
+      const Vec3 d = frame.ToWorld(CosineHemisphere(u1, u2));
+      Hit hit;
+      sees_object[t] = geometry.Intersect(tx.position + tx.normal * LightPaths::kSceneScale, d, &hit);
+    }
+  }, 64);
+  return sees_object;
+}
+
 }  // namespace
 
 InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g, const InterreflectionOptions& o) {
@@ -89,23 +114,8 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
   // e per sample in y's units: y_c = radiance_c * m / E_c with m = mean_c E_c
   // (gather.cc), so an indirect irradiance scales alike.
   // Texels that see no part of the object (all of a convex one) get no
-  // indirect light: found once with a few cosine-weighted rays each.
-  const RayTracer geometry(g->mesh);
-  std::vector<char> sees_object(s.num_texels, 0);
-  ParallelFor(s.num_texels, o.threads, [&](long t) {
-    if (s.texel_begin[t] == s.texel_begin[t + 1]) return;
-    const Texel& tx = g->atlas.texels[t];
-    const Frame frame = Frame::FromNormalTangent(tx.normal, tx.tangent);
-    constexpr int kSide = 6;  // 36 stratified directions
-    Rng rng(StreamSeed(o.seed, uint64_t(t), 1));
-    std::uniform_real_distribution<double> u01(0.0, 1.0);
-    for (int k = 0; k < kSide * kSide && !sees_object[t]; ++k) {
-      const double u1 = (k / kSide + u01(rng)) / kSide, u2 = (k % kSide + u01(rng)) / kSide;
-      const Vec3 d = frame.ToWorld(CosineHemisphere(u1, u2));
-      Hit hit;
-      sees_object[t] = geometry.Intersect(tx.position + tx.normal * LightPaths::kSceneScale, d, &hit);
-    }
-  }, 64);
+  // indirect light.
+  const std::vector<char> sees_object = TexelsThatSeeTheObject(*g, o);
   auto trace = [&](const std::vector<Rgb>& rho, const char* what) {
     const Material lambert = LambertMaterial(*g, rho);
     const RayTracer tracer(lambert.mesh);
@@ -178,6 +188,57 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
   rep.removed_share = total > 0 ? removed / total : 0.0;
   rep.samples_over_5pc = double(over) / double(s.size());
   return rep;
+}
+
+std::vector<Rgb> TraceIndirectWithMaterial(const Scene& scene, const GatherResult& g, const Material& material,
+                                           const InterreflectionOptions& o) {
+  o.Check();
+  const SampleSet& s = g.samples;
+  if (size_t(s.num_texels) != g.atlas.texels.size() || material.width != g.atlas.width ||
+      material.height != g.atlas.height)
+    throw Error("internal: interreflection: samples, atlas and material disagree on the texels");
+  std::vector<Rgb> out(s.size(), Rgb::Zero());
+  if (o.bounces == 0 || s.size() == 0) return out;
+  const std::vector<char> sees_object = TexelsThatSeeTheObject(g, o);
+  const RayTracer tracer(material.mesh);
+  const MaterialShader shader(material);
+  std::vector<LightPaths> paths;
+  paths.reserve(scene.images.size());
+  for (const ImageEntry& e : scene.images)
+    paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
+  const int K = int(material.basis.size());
+  Progress bar("interreflection with the fit", s.num_texels, o.progress);
+  ParallelFor(s.num_texels, o.threads, [&](long t) {
+    bar.Tick();
+    if (!sees_object[t]) return;
+    const Texel& tx = g.atlas.texels[t];
+    const Frame frame = Frame::FromNormalTangent(tx.normal, tx.tangent);
+    const Vec3 origin = tx.position + tx.normal * LightPaths::kSceneScale;
+    std::vector<Rgb> w(K);
+    for (int k = 0; k < K; ++k)
+      for (int c = 0; c < 3; ++c) w[k][c] = material.weights[k].at(tx.x, tx.y, c);
+    auto leave = [&](const Vec3&) { return origin; };
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      const LightPaths& lp = paths[s.image[i]];
+      const LightSample ls = lp.LightAt(tx.position);
+      if (!(ls.normal_irradiance > 0).all()) continue;
+      const Vec3 wo = (lp.eye() - tx.position).normalized();
+      const Vec3 wo_local = frame.ToLocal(wo);
+      auto f = [&](const Vec3& wi_world) {
+        const Vec3 wi = frame.ToLocal(wi_world);
+        Rgb v = Rgb::Zero();
+        if (wi.z() <= 0) return v;
+        for (int k = 0; k < K; ++k)
+          if ((w[k] > 0).any()) v += w[k] * EvalModelD(material.basis[k].spec, material.basis[k].params.data(), wi, wo_local);
+        return v;
+      };
+      Rng rng(StreamSeed(o.seed, uint64_t(i), 2));
+      const Rgb radiance = lp.Indirect(frame, f, leave, o.bounces, o.refit_paths, rng, &wo);
+      const double m = ls.normal_irradiance.mean();
+      for (int c = 0; c < 3; ++c) out[i][c] = radiance[c] * m / ls.normal_irradiance[c];
+    }
+  }, 16);
+  return out;
 }
 
 }  // namespace svbrdf

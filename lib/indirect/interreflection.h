@@ -29,7 +29,10 @@
 #include <cstdint>
 #include <string>
 
+#include <vector>
+
 #include "gather/gather.h"
+#include "io/material.h"
 #include "io/scene.h"
 
 namespace svbrdf {
@@ -39,9 +42,14 @@ namespace svbrdf {
 //   paths     paths per sample (noise of e, zero mean)                 [1, 256]
 //   seed      random streams (per sample: deterministic)
 //   threads   0 = all cores
+//   refit     a second pass with fitted materials (see below; the
+//             pipeline runs it between the split search and the final fits)
+//   refit_paths     paths per sample of that pass                   [1, 256]
 struct InterreflectionOptions {
   int bounces = 2;
   int paths = 8;
+  bool refit = true;
+  int refit_paths = 16;
   uint64_t seed = 1;
   int threads = 0;
   bool progress = true;
@@ -60,5 +68,17 @@ struct InterreflectionReport {
 // Subtracts the estimated indirect light from g->samples (see above). The
 // scene gives each sample's camera pose and light.
 InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g, const InterreflectionOptions& o);
+
+// The second pass. The Lambertian receiver above is right for diffuse
+// texels; a glossy one (a metal inside a torus' ring) reflects mostly what
+// lies about its mirror direction, a blurred image of the object that the
+// first pass leaves in its samples, and a fit then gives those texels a
+// material of their own. With a fitted material, the indirect light of
+// every sample is traced again: the texel's own BRDF (`material`'s weights
+// at the texel, which must be on g's atlas) receives it, `material` shades
+// every other point, directions from LightPaths' glossy mixture. Per sample
+// and channel in y's units; zero on texels that see nothing of the object.
+std::vector<Rgb> TraceIndirectWithMaterial(const Scene& scene, const GatherResult& g, const Material& material,
+                                           const InterreflectionOptions& o);
 
 }  // namespace svbrdf

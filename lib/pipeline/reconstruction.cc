@@ -1,5 +1,6 @@
 #include "pipeline/reconstruction.h"
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/normal_map.h"
+#include "pipeline/interreflection_stage.h"
 #include "pipeline/normal_stage.h"
 #include "pipeline/photometric_stage.h"
 #include "photometric/observations.h"
@@ -152,12 +154,14 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   if (job.after_gather) job.after_gather(g);
   std::fprintf(stderr, "  %s\n", g.stats.Report().c_str());
   InterreflectionReport interreflection;
+  InterreflectionOptions io = job.interreflection;
+  io.seed = job.estimate.seed;
+  io.threads = job.estimate.threads;
+  io.progress = io.progress && job.estimate.progress;
+  std::array<std::vector<float>, 3> raw_y;  // for the second pass (interreflection_stage.h)
   if (job.interreflection.bounces > 0) {
     timer.Start("interreflection");
-    InterreflectionOptions io = job.interreflection;
-    io.seed = job.estimate.seed;
-    io.threads = job.estimate.threads;
-    io.progress = io.progress && job.estimate.progress;
+    if (io.refit) raw_y = {g.samples.y[0], g.samples.y[1], g.samples.y[2]};
     interreflection = RemoveInterreflection(scene, &g, io);
     std::fprintf(stderr, "  %s\n", interreflection.Summary().c_str());
   }
@@ -181,12 +185,17 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     fit_keep[s] = g.probes[s].unlit <= job.fit_max_unlit_share && g.probes[s].foreign <= job.fit_max_foreign_share;
     dropped += !fit_keep[s];
   }
+  // With the interreflection's second pass (interreflection_stage.h) the
+  // search runs on the first pass's samples, the indirect light is traced
+  // again with its materials, and steps 3-6 fit the samples without it.
+  const bool second_pass = io.refit && interreflection.removed_share > 0;
+  const bool subset = dropped > 0 && dropped < g.samples.size();
   SvbrdfEstimate est;
-  if (dropped > 0 && dropped < g.samples.size()) {
+  if (subset) {
     SampleSet fit = KeepSamples(g.samples, fit_keep);
     std::fprintf(stderr, "  footprint probe: %lld of %lld samples partly unlit or on another surface: split search only\n",
                  static_cast<long long>(dropped), static_cast<long long>(g.samples.size()));
-    est = EstimateSvbrdf(g.samples, g.atlas, eo, &fit);
+    est = second_pass ? SearchSvbrdf(g.samples, g.atlas, eo) : EstimateSvbrdf(g.samples, g.atlas, eo, &fit);
     // The stages below (normals, merge, report) work on the fit samples.
     g.samples = std::move(fit);
     std::vector<SampleProbe> kept;
@@ -194,7 +203,24 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
       if (fit_keep[s]) kept.push_back(g.probes[s]);
     g.probes = std::move(kept);
   } else {
-    est = EstimateSvbrdf(g.samples, g.atlas, eo);
+    est = second_pass ? SearchSvbrdf(g.samples, g.atlas, eo) : EstimateSvbrdf(g.samples, g.atlas, eo);
+  }
+  nlohmann::json interreflection_pass2;
+  if (second_pass) {
+    if (subset)
+      for (auto& y : raw_y) {
+        std::vector<float> sub;
+        sub.reserve(g.samples.size());
+        for (size_t i = 0; i < y.size(); ++i)
+          if (fit_keep[i]) sub.push_back(y[i]);
+        y = std::move(sub);
+      }
+    timer.Start("interreflection, 2nd pass");
+    const InterreflectionPass2Report r = RemoveInterreflectionWithSearchMaterials(scene, raw_y, io, &g, est);
+    std::fprintf(stderr, "  %s\n", r.Summary().c_str());
+    interreflection_pass2 = {{"changed_share", r.changed_share}, {"max_material_change", r.max_change}};
+    timer.Start("fit + cluster");
+    est = FinishEstimateOnNewSamples(g.samples, g.atlas, eo, est);
   }
   const double cluster_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - cluster_start).count();
 
@@ -272,7 +298,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["interreflection"] = {{"bounces", interreflection.bounces},
                                 {"removed_share", interreflection.removed_share},
                                 {"samples_over_5pc", interreflection.samples_over_5pc},
-                                {"max_share", interreflection.max_share}};
+                                {"max_share", interreflection.max_share},
+                                {"second_pass", interreflection_pass2}};
   summary["clusters"] = est.basis.size();
   summary["render_target"] = RenderTargetName(target);
   summary["candidate_models"] = eo.candidate_models;

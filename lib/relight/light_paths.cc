@@ -1,5 +1,6 @@
 #include "relight/light_paths.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace svbrdf {
@@ -35,21 +36,53 @@ Rgb LightPaths::Direct(const Vertex& v, const Vec3& wo) const {
   return shader_.Eval(v.uv, v.frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
 }
 
+namespace {
+
+Vec3 Mirror(const Frame& frame, const Vec3& wo) { return 2 * frame.n.dot(wo) * frame.n - wo; }
+
+}  // namespace
+
+Vec3 GlossyMixture::Sample(const Frame& frame, const Vec3& wo, double u0, double u1, double u2) {
+  if (u0 < kCosineShare) return frame.ToWorld(CosineHemisphere(u1, u2));
+  const int k = std::min(2, int((u0 - kCosineShare) / ((1 - kCosineShare) / 3)));
+  const double c = std::pow(u1, 1 / (kExponents[k] + 1)), s = std::sqrt(std::max(0.0, 1 - c * c));
+  const double phi = 2 * kPi * u2;
+  return Frame::FromNormal(Mirror(frame, wo).normalized()).ToWorld(Vec3(s * std::cos(phi), s * std::sin(phi), c));
+}
+
+double GlossyMixture::Pdf(const Frame& frame, const Vec3& wo, const Vec3& wi) {
+  const double cos_n = frame.n.dot(wi);
+  if (cos_n <= 0) return 0;
+  const double cos_r = std::max(0.0, Mirror(frame, wo).normalized().dot(wi));
+  double pdf = kCosineShare * cos_n / kPi;
+  for (double n : kExponents) pdf += (1 - kCosineShare) / 3 * (n + 1) / (2 * kPi) * std::pow(cos_r, n);
+  return pdf;
+}
+
 Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const Vec3&)>& first_f,
                          const std::function<Vec3(const Vec3&)>& origin_offset, int bounces, int paths,
-                         Rng& rng) const {
+                         Rng& rng, const Vec3* first_wo) const {
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   Rgb sum = Rgb::Zero();
   for (int k = 0; k < paths; ++k) {
     Frame frame = first_frame;
     Vertex v;
-    Vec3 wo;
+    Vec3 wo = first_wo ? *first_wo : Vec3::Zero();
     Rgb throughput = Rgb::Ones();
     for (int b = 0; b < bounces; ++b) {
-      // Cosine-weighted direction: pdf cos/pi, so f cos / pdf = f pi.
-      const double u1 = u01(rng), u2 = u01(rng);
-      const Vec3 wi = frame.ToWorld(CosineHemisphere(u1, u2));
-      throughput *= (b == 0 ? first_f(wi) : shader_.Eval(v.uv, v.frame, wi, wo)) * kPi;
+      Vec3 wi;
+      if (first_wo) {
+        const double u0 = u01(rng), u1 = u01(rng), u2 = u01(rng);
+        wi = GlossyMixture::Sample(frame, wo, u0, u1, u2);
+        const double pdf = GlossyMixture::Pdf(frame, wo, wi);
+        if (!(pdf > 0)) break;  // below the surface: this path ends
+        throughput *= (b == 0 ? first_f(wi) : shader_.Eval(v.uv, v.frame, wi, wo)) * (frame.n.dot(wi) / pdf);
+      } else {
+        // Cosine-weighted direction: pdf cos/pi, so f cos / pdf = f pi.
+        const double u1 = u01(rng), u2 = u01(rng);
+        wi = frame.ToWorld(CosineHemisphere(u1, u2));
+        throughput *= (b == 0 ? first_f(wi) : shader_.Eval(v.uv, v.frame, wi, wo)) * kPi;
+      }
       if (!(throughput > 0).any()) break;
       Hit next;
       if (!tracer_.Intersect(b == 0 ? origin_offset(wi) : Offset(v, wi), wi, &next)) break;
@@ -70,7 +103,7 @@ Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const
 Rgb LightPaths::Indirect(const Vertex& v, const Vec3& wo, int bounces, int paths, Rng& rng) const {
   return Indirect(
       v.frame, [&](const Vec3& wi) { return shader_.Eval(v.uv, v.frame, wi, wo); },
-      [&](const Vec3& wi) { return Offset(v, wi); }, bounces, paths, rng);
+      [&](const Vec3& wi) { return Offset(v, wi); }, bounces, paths, rng, &wo);
 }
 
 }  // namespace svbrdf
