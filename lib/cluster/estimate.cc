@@ -102,53 +102,55 @@ SvbrdfEstimate SearchSvbrdf(const SampleSet& samples, const Atlas& atlas, const 
   return Estimate(samples, atlas, o, nullptr, true);
 }
 
-SvbrdfEstimate FinishEstimateOnNewSamples(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
-                                          const SvbrdfEstimate& previous) {
+namespace {
+
+// Steps 3-6 (FinishEstimate) with linear residuals on `samples`, from the
+// partition `assign` (values < 0 join cluster 0; the refinement reassigns
+// them) and `basis` as starting points.
+SvbrdfEstimate FinishFrom(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                          const std::vector<BasisMaterial>& basis, const std::vector<int>& assign,
+                          const std::string& what, double search_seconds, bool as_estimate, SvbrdfEstimate est) {
   o.Check();
   if (samples.size() == 0) throw Error("reconstruct: no samples");
-  if (previous.search.basis.empty() || int(previous.search.assign.size()) != samples.num_texels)
-    throw Error(Msg("reconstruct: steps 3-6 again need a split search's result on the same ", samples.num_texels,
+  if (basis.empty() || int(assign.size()) != samples.num_texels)
+    throw Error(Msg("reconstruct: ", what, " needs materials and a partition of the same ", samples.num_texels,
                     " texels"));
   ReconstructOptions linear = o;  // as steps 3-6 of EstimateSvbrdf
   linear.fit.compression = 0;
   Clustering cl(samples, atlas, linear);
+  const StageLog log(o.progress);
+  cl.stage = what.c_str();
+  for (int k = 0; k < int(basis.size()); ++k) cl.SetBasis(k, basis[k]);
+  for (int t = 0; t < samples.num_texels; ++t) cl.assign()[t] = std::max(0, assign[t]);
+  log(Msg(what, ": ", cl.K(), " basis materials on the given samples"));
+  FinishEstimate(cl, atlas, search_seconds, as_estimate && o.refit_basis_on_weights, as_estimate, log, &est);
+  return est;
+}
+
+}  // namespace
+
+SvbrdfEstimate FinishEstimateOnNewSamples(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
+                                          const SvbrdfEstimate& previous) {
   SvbrdfEstimate est;
   est.history = previous.history;
   est.states_revisited = previous.states_revisited;
   est.search = previous.search;
-  const StageLog log(o.progress);
-  for (int k = 0; k < int(previous.search.basis.size()); ++k) cl.SetBasis(k, previous.search.basis[k]);
-  cl.assign() = previous.search.assign;
-  log(Msg("steps 3-6 again on new sample values, from the split search's ", cl.K(), " clusters"));
-  FinishEstimate(cl, atlas, previous.search.seconds, o.refit_basis_on_weights, true, log, &est);
-  return est;
+  return FinishFrom(samples, atlas, o, previous.search.basis, previous.search.assign, "steps 3-6 from the split search",
+                    previous.search.seconds, true, std::move(est));
 }
 
 SvbrdfEstimate RefitSvbrdf(const SampleSet& samples, const Atlas& atlas, const ReconstructOptions& o,
                            const SvbrdfEstimate& previous) {
-  o.Check();
-  if (samples.size() == 0) throw Error("reconstruct: no samples");
-  if (previous.basis.empty() || int(previous.label.size()) != samples.num_texels)
-    throw Error(Msg("reconstruct: refit needs an estimate of the same ", samples.num_texels, " texels"));
-  ReconstructOptions linear = o;  // as steps 3-6 of EstimateSvbrdf
-  linear.fit.compression = 0;
-  Clustering cl(samples, atlas, linear);
   SvbrdfEstimate est;
   est.history = previous.history;
   est.pruned = previous.pruned;
-  const StageLog log(o.progress);
-  cl.stage = "refit";
-  // The partition of `previous` (texels without a label join cluster 0;
-  // the refinement reassigns them), its materials as starting points.
-  for (int k = 0; k < int(previous.basis.size()); ++k) cl.SetBasis(k, previous.basis[k]);
-  for (int t = 0; t < samples.num_texels; ++t) cl.assign()[t] = std::max(0, previous.label[t]);
-  log(Msg("refit of ", cl.K(), " basis materials on the given samples"));
-  // No basis refit on the weights here: the normal stage's rounds refit in
-  // the refined normals' frames and polish the basis with the tilts; a refit
-  // on the weights inside them drifts (default_bump: the final photo check
-  // and the held-out views get worse; bench_results/independent.md).
-  FinishEstimate(cl, atlas, 0.0, false, false, log, &est);
-  return est;
+  // The partition of `previous`, its materials as starting points. No
+  // pruning and no basis refit on the weights here: the normal stage's
+  // rounds refit in the refined normals' frames and polish the basis with
+  // the tilts; a refit on the weights inside them drifts (default_bump: the
+  // final photo check and the held-out views get worse;
+  // bench_results/independent.md).
+  return FinishFrom(samples, atlas, o, previous.basis, previous.label, "refit", 0.0, false, std::move(est));
 }
 
 namespace {

@@ -100,6 +100,15 @@ std::vector<char> TexelsThatSeeTheObject(const GatherResult& g, const Interrefle
   return sees_object;
 }
 
+// Light paths under each image's light, seen from its camera.
+std::vector<LightPaths> PathsPerImage(const Scene& scene, const RayTracer& tracer, const MaterialShader& shader) {
+  std::vector<LightPaths> paths;
+  paths.reserve(scene.images.size());
+  for (const ImageEntry& e : scene.images)
+    paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
+  return paths;
+}
+
 }  // namespace
 
 InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g, const InterreflectionOptions& o) {
@@ -120,10 +129,7 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
     const Material lambert = LambertMaterial(*g, rho);
     const RayTracer tracer(lambert.mesh);
     const MaterialShader shader(lambert);
-    std::vector<LightPaths> paths;
-    paths.reserve(scene.images.size());
-    for (const ImageEntry& e : scene.images)
-      paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
+    const std::vector<LightPaths> paths = PathsPerImage(scene, tracer, shader);
     std::vector<Rgb> e(s.size(), Rgb::Zero());
     Progress bar(what, s.num_texels, o.progress);
     ParallelFor(s.num_texels, o.threads, [&](long t) {
@@ -202,10 +208,7 @@ std::vector<Rgb> TraceIndirectWithMaterial(const Scene& scene, const GatherResul
   const std::vector<char> sees_object = TexelsThatSeeTheObject(g, o);
   const RayTracer tracer(material.mesh);
   const MaterialShader shader(material);
-  std::vector<LightPaths> paths;
-  paths.reserve(scene.images.size());
-  for (const ImageEntry& e : scene.images)
-    paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
+  const std::vector<LightPaths> paths = PathsPerImage(scene, tracer, shader);
   const int K = int(material.basis.size());
   Progress bar("interreflection with the fit", s.num_texels, o.progress);
   ParallelFor(s.num_texels, o.threads, [&](long t) {
