@@ -468,7 +468,7 @@ TEST(Relight, GlossyMixtureDirectionsAreUnbiasedAndLessNoisy) {
   EXPECT_LT(standard_error, 0.02 * mean_cos);  // the comparison above is a sharp one
   EXPECT_LT(sd_mix, 0.5 * sd_cos) << "per-path noise, mixture " << sd_mix << " vs cosine " << sd_cos;
   // Below-surface mixture directions have no density: the estimate ignores them.
-  EXPECT_EQ(GlossyMixture::Pdf(frame, wo, Vec3(0, 0, -1)), 0.0);
+  EXPECT_EQ(GlossyMixture::Pdf(frame, GlossyMixture::Mirror(frame, wo), Vec3(0, 0, -1)), 0.0);
 }
 
 // A convex object cannot light itself: indirect paths leave it.

@@ -74,8 +74,7 @@ SvbrdfEstimate Estimate(const SampleSet& samples, const Atlas& atlas, const Reco
     WeightModel m = models.front();
     for (const WeightModel& c : models)
       if (!c.per_channel && c.radius >= m.radius && c.unit_sum_samples >= m.unit_sum_samples) m = c;
-    std::vector<float> residual;
-    cl.FinalWeights(m, &est.search.weights, &residual);
+    cl.FinalWeights(m, &est.search.weights, nullptr);
     return est;
   }
   if (!subset && !(o.fit.compression > 0)) {

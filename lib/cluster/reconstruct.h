@@ -289,6 +289,11 @@ SvbrdfEstimate SearchSvbrdf(const SampleSet& samples, const Atlas& atlas, const 
 SvbrdfEstimate FinishEstimateOnNewSamples(const SampleSet& samples, const Atlas& atlas,
                                           const ReconstructOptions& options, const SvbrdfEstimate& previous);
 
+// A material with these basis materials mixed by texel-major [t][k][c]
+// weights on the atlas (the rest of the maps empty).
+Material MixedMaterial(const std::vector<BasisMaterial>& basis, const std::vector<float>& weights, const Atlas& atlas,
+                       const Mesh& mesh);
+
 // Writes the estimate as a material folder (weights, confidence, material-id,
 // residual maps) for the given mesh (whose UVs the atlas uses).
 Material ToMaterial(const SvbrdfEstimate& est, const Atlas& atlas, const Mesh& mesh);

@@ -24,19 +24,9 @@ InterreflectionPass2Report RemoveInterreflectionWithSearchMaterials(const Scene&
     throw Error("internal: interreflection 2nd pass: no split search result on this atlas");
   // The search's materials mixed by its weights (a texel in a soft blend
   // of a metal receives as the blend does, not as the metal).
-  const size_t nt = g->atlas.texels.size();
-  if (search.search.weights.size() != nt * size_t(K) * 3)
+  if (search.search.weights.size() != g->atlas.texels.size() * size_t(K) * 3)
     throw Error("internal: interreflection 2nd pass: the split search's weights do not match");
-  Material m;
-  m.mesh = g->mesh;
-  m.width = g->atlas.width, m.height = g->atlas.height;
-  m.basis = search.search.basis;
-  for (int k = 0; k < K; ++k) m.weights.emplace_back(m.width, m.height, 3, 0.0f);
-  for (size_t t = 0; t < nt; ++t) {
-    const Texel& tx = g->atlas.texels[t];
-    for (int k = 0; k < K; ++k)
-      for (int c = 0; c < 3; ++c) m.weights[k].at(tx.x, tx.y, c) = search.search.weights[(t * K + k) * 3 + c];
-  }
+  const Material m = MixedMaterial(search.search.basis, search.search.weights, g->atlas, g->mesh);
   const std::vector<Rgb> indirect = TraceIndirectWithMaterial(scene, *g, m, io);
   InterreflectionPass2Report rep;
   std::vector<double> change(K, 0.0), signal(K, 0.0);

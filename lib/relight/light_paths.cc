@@ -36,24 +36,22 @@ Rgb LightPaths::Direct(const Vertex& v, const Vec3& wo) const {
   return shader_.Eval(v.uv, v.frame, ls.wi, wo) * ls.normal_irradiance * cos_i;
 }
 
-namespace {
+Vec3 GlossyMixture::Mirror(const Frame& frame, const Vec3& wo) {
+  return (2 * frame.n.dot(wo) * frame.n - wo).normalized();
+}
 
-Vec3 Mirror(const Frame& frame, const Vec3& wo) { return 2 * frame.n.dot(wo) * frame.n - wo; }
-
-}  // namespace
-
-Vec3 GlossyMixture::Sample(const Frame& frame, const Vec3& wo, double u0, double u1, double u2) {
+Vec3 GlossyMixture::Sample(const Frame& frame, const Vec3& mirror, double u0, double u1, double u2) {
   if (u0 < kCosineShare) return frame.ToWorld(CosineHemisphere(u1, u2));
   const int k = std::min(2, int((u0 - kCosineShare) / ((1 - kCosineShare) / 3)));
   const double c = std::pow(u1, 1 / (kExponents[k] + 1)), s = std::sqrt(std::max(0.0, 1 - c * c));
   const double phi = 2 * kPi * u2;
-  return Frame::FromNormal(Mirror(frame, wo).normalized()).ToWorld(Vec3(s * std::cos(phi), s * std::sin(phi), c));
+  return Frame::FromNormal(mirror).ToWorld(Vec3(s * std::cos(phi), s * std::sin(phi), c));
 }
 
-double GlossyMixture::Pdf(const Frame& frame, const Vec3& wo, const Vec3& wi) {
+double GlossyMixture::Pdf(const Frame& frame, const Vec3& mirror, const Vec3& wi) {
   const double cos_n = frame.n.dot(wi);
   if (cos_n <= 0) return 0;
-  const double cos_r = std::max(0.0, Mirror(frame, wo).normalized().dot(wi));
+  const double cos_r = std::max(0.0, mirror.dot(wi));
   double pdf = kCosineShare * cos_n / kPi;
   for (double n : kExponents) pdf += (1 - kCosineShare) / 3 * (n + 1) / (2 * kPi) * std::pow(cos_r, n);
   return pdf;
@@ -73,8 +71,9 @@ Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const
       Vec3 wi;
       if (first_wo) {
         const double u0 = u01(rng), u1 = u01(rng), u2 = u01(rng);
-        wi = GlossyMixture::Sample(frame, wo, u0, u1, u2);
-        const double pdf = GlossyMixture::Pdf(frame, wo, wi);
+        const Vec3 mirror = GlossyMixture::Mirror(frame, wo);
+        wi = GlossyMixture::Sample(frame, mirror, u0, u1, u2);
+        const double pdf = GlossyMixture::Pdf(frame, mirror, wi);
         if (!(pdf > 0)) break;  // below the surface: this path ends
         throughput *= (b == 0 ? first_f(wi) : shader_.Eval(v.uv, v.frame, wi, wo)) * (frame.n.dot(wi) / pdf);
       } else {

@@ -25,10 +25,12 @@ namespace svbrdf {
 struct GlossyMixture {
   static constexpr double kCosineShare = 0.4;
   static constexpr double kExponents[3] = {10, 100, 1000};
-  // A direction from three uniform numbers in [0, 1).
-  static Vec3 Sample(const Frame& frame, const Vec3& wo, double u0, double u1, double u2);
+  // The lobes' axis: wo mirrored about the frame's normal (unit).
+  static Vec3 Mirror(const Frame& frame, const Vec3& wo);
+  // A direction from three uniform numbers in [0, 1); `mirror` from Mirror().
+  static Vec3 Sample(const Frame& frame, const Vec3& mirror, double u0, double u1, double u2);
   // Its density over solid angle (0 below the surface of `frame`).
-  static double Pdf(const Frame& frame, const Vec3& wo, const Vec3& wi);
+  static double Pdf(const Frame& frame, const Vec3& mirror, const Vec3& wi);
 };
 
 class LightPaths {
