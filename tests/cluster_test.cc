@@ -341,6 +341,38 @@ TEST(Cluster, SplitPeelsExtremeTexelsToFindTwoMaterials) {
   EXPECT_EQ(est.basis.size(), 1u);
 }
 
+// After refinement a split half keeps its model only while no other screens
+// clearly better on its texels (split_search.cc, RechooseHalfModels): a
+// conductor given to a half of metal and paint must screen clearly worse
+// than a model with a diffuse term once the half holds the paint alone, and
+// the choice reports the incumbent's error beside the winner's.
+TEST(Cluster, SplitModelChoiceReportsTheIncumbentsError) {
+  const int T = 200;
+  const SampleSet s = MakeSamples({Lambert(0.1, 0.2, 0.5)}, std::vector<int>(T, 0), 5);
+  ReconstructOptions o = Quiet();
+  o.candidate_models = ReconstructOptions().candidate_models;
+  Clustering cl(s, LineAtlas(T), o);
+  std::fill(cl.assign().begin(), cl.assign().end(), 0);
+  BasisMaterial metal;
+  metal.spec = ModelSpec::FromLabel("conductor-ggx-schlick");
+  metal.params = metal.spec.InitialParams();
+  const std::vector<ModelSpec> split_models = SplitModels(o);
+  ASSERT_NE(std::find(split_models.begin(), split_models.end(), metal.spec), split_models.end());
+  cl.SetBasis(0, metal);
+  const SplitModelChoice c = ChooseSplitModel(cl, 0, &metal);
+  EXPECT_TRUE(c.screened);
+  EXPECT_FALSE(c.spec == metal.spec) << c.spec.Label();
+  ASSERT_TRUE(std::isfinite(c.parent_mse));
+  EXPECT_LT(c.mse, 0.5 * c.parent_mse);
+  // The winner as incumbent: its own error is the winner's.
+  BasisMaterial winner;
+  winner.spec = c.spec;
+  winner.params = c.start;
+  const SplitModelChoice again = ChooseSplitModel(cl, 0, &winner);
+  EXPECT_TRUE(again.spec == c.spec) << again.spec.Label();
+  EXPECT_DOUBLE_EQ(again.mse, again.parent_mse);
+}
+
 // Two colours, but no split is ever good enough (min_z out of reach): the
 // search backtracks and tries the next feature set, and the colour-only
 // features give the same halves as all features. That state must not be

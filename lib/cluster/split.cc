@@ -234,14 +234,14 @@ double SplitCoherence(const Clustering& cl, const std::vector<int>& side) {
   return 1.0 - (differ / pairs) / expected;
 }
 
-BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
+SplitModelChoice ChooseSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
   const ReconstructOptions& o = cl.options();
   const std::vector<ModelSpec> specs = SplitModels(o);
   auto start = [&](const ModelSpec& spec) { return parent && parent->spec == spec ? parent->params : std::vector<double>{}; };
-  if (specs.size() == 1) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  if (specs.size() == 1) return {specs[0], start(specs[0]), false};
   std::vector<int64_t> train, hold;
   ValidationSamples(cl, k, &train, &hold);
-  if (train.empty()) return MakeBasis(specs[0], cl.Fit(specs[0], k, start(specs[0])), k);
+  if (train.empty()) return {specs[0], start(specs[0]), false};
   // Independent quick fits (screening, as in model selection), one per thread.
   std::vector<FitResult> fits(specs.size());
   std::vector<double> mse(specs.size(), 0.0);
@@ -260,9 +260,18 @@ BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* pa
     mse[j] = sum / (3.0 * hold.size());
   });
   const size_t best = size_t(std::min_element(mse.begin(), mse.end()) - mse.begin());
+  SplitModelChoice choice{specs[best], fits[best].params, true, mse[best]};
+  for (size_t j = 0; j < specs.size(); ++j)
+    if (parent && specs[j] == parent->spec) choice.parent_mse = mse[j];
+  return choice;
+}
+
+BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
+  const SplitModelChoice c = ChooseSplitModel(cl, k, parent);
+  if (!c.screened) return MakeBasis(c.spec, cl.Fit(c.spec, k, c.start), k);
   // The chosen model fitted fully (robust, all training samples), from its
   // screening fit: the split test scores the halves before refinement.
-  return MakeBasis(specs[best], cl.Fit(specs[best], k, fits[best].params, 0, -1, parent == nullptr), k);
+  return MakeBasis(c.spec, cl.Fit(c.spec, k, c.start, 0, -1, parent == nullptr), k);
 }
 
 }  // namespace svbrdf

@@ -2,6 +2,7 @@
 // which half (split.cc), and the search over splits with backtracking and the
 // held-out stopping rule (split_search.cc).
 #pragma once
+#include <limits>
 #include <vector>
 
 #include "cluster/clustering.h"
@@ -49,6 +50,17 @@ std::vector<ModelSpec> SplitModels(const ReconstructOptions& o);
 // data alone, not on one model: a metal half gets a conductor, a glossy
 // dielectric half a coat, whatever the parent was.
 BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent);
+// FitSplitModel's choice alone: the model and its screening fit (or
+// `parent`'s parameters when there is no choice to make), without the full fit.
+struct SplitModelChoice {
+  ModelSpec spec;
+  std::vector<double> start;
+  bool screened = false;  // chosen among several by screening fits (`start` is the winner's)
+  // Screened: the winner's validation mean squared error, and that of
+  // `parent`'s model (infinite when it is not among SplitModels()).
+  double mse = 0, parent_mse = std::numeric_limits<double>::infinity();
+};
+SplitModelChoice ChooseSplitModel(const Clustering& cl, int k, const BasisMaterial* parent);
 
 // Spatial coherence of the current labels on the texels where `side` != 0
 // (a split cluster's texels): 1 - (share of their 8-neighbour pairs with

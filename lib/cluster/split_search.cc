@@ -24,6 +24,9 @@ constexpr double kControlSamePartition = 0.95;
 // gains. Both are then refined before they are compared, as one split past
 // the best (see the control test below).
 constexpr double kControlConfounded = 0.7;
+// A split half switches model after refinement when another's validation
+// error is below this share of its own (RechooseHalfModels).
+constexpr double kModelSwitch = 0.7;
 
 // Share of the texels where both +-1 splits are set on which they agree, up
 // to swapping the halves (0.5 for independent splits, 1 for the same one).
@@ -48,6 +51,31 @@ void SplitCluster(Clustering& cl, int k, const std::vector<int>& side, const std
   if (stop && *stop) return;
   cl.SetBasis(k, FitSplitModel(cl, k, &parent));
   for (int& a : cl.assign()) if (a < 0) a = k;
+}
+
+// Refinement moves texels between the halves after their models were
+// chosen (FitSplitModel, on the halves as split), so each half chooses its
+// model again on its refined texels (screening fits; the full fit and
+// another refinement only when another model is clearly better: below
+// kModelSwitch of the current one's validation error, as near-ties between
+// screening fits flip with a few texels). Seen on a Mitsuba bunny
+// scan (glazed ceramic, copper ears, blue paint): a half of ceramic and
+// copper took a conductor (the other models' screening fits failed on the
+// mix), kept it for the ceramic once the refinement had moved the copper
+// out, and the split lost for the ceramic's worse fit. `knew`: the new
+// half's cluster as split (k the other).
+void RechooseHalfModels(Clustering& cl, int k, int knew, int iterations, const std::atomic<bool>* stop) {
+  if (knew != cl.K() - 1 || knew == k) return;  // the refinement removed a cluster
+  bool changed = false;
+  for (int c : {k, knew}) {
+    if (stop && *stop) return;
+    const BasisMaterial current = cl.basis()[c];
+    const SplitModelChoice choice = ChooseSplitModel(cl, c, &current);
+    if (choice.spec == current.spec || !(choice.mse < kModelSwitch * choice.parent_mse)) continue;
+    cl.SetBasis(c, MakeBasis(choice.spec, cl.Fit(choice.spec, c, choice.start, 0, -1, false), c));
+    changed = true;
+  }
+  if (changed) Refine(cl, iterations, true, stop);
 }
 
 }  // namespace
@@ -168,7 +196,9 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       SplitCluster(cl, k, side);
       if (o.SecondsLeft() <= 0) return (void)(control_unneeded = true);  // undone at the check below
       if (honest_test && !refine_control) cl.HeldoutRmse(false, &candidate_sse);
+      const int knew = cl.K() - 1;
       Refine(cl, o.refine_iterations, true);
+      RechooseHalfModels(cl, k, knew, o.refine_iterations, nullptr);
       h = cl.HeldoutRmse(false, &texel_sse);
       // Paired tests over texels: on the squared errors (dominated by the
       // texels with the largest errors) or on the bounded per-texel changes
@@ -182,7 +212,11 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     auto work_control = [&](Clustering& c, bool refine) {
       SplitCluster(c, k, control_side, &control_unneeded);
       if (control_unneeded) return;
-      if (refine) Refine(c, o.refine_iterations, false, &control_unneeded);
+      if (refine) {
+        const int knew = c.K() - 1;
+        Refine(c, o.refine_iterations, false, &control_unneeded);
+        RechooseHalfModels(c, k, knew, o.refine_iterations, &control_unneeded);
+      }
       if (control_unneeded) return;
       control_assign = c.assign();
       c.HeldoutRmse(false, &control_sse);
