@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <string>
 #include <unordered_set>
 
@@ -70,10 +71,16 @@ void RechooseHalfModels(Clustering& cl, int k, int knew, int iterations, const s
   for (int c : {k, knew}) {
     if (stop && *stop) return;
     const BasisMaterial current = cl.basis()[c];
-    const SplitModelChoice choice = ChooseSplitModel(cl, c, &current);
-    if (choice.spec == current.spec || !(choice.mse < kModelSwitch * choice.parent_mse)) continue;
-    cl.SetBasis(c, MakeBasis(choice.spec, cl.Fit(choice.spec, c, choice.start, 0, -1, false), c));
-    changed = true;
+    // A fit that fails keeps the current material, as in Refine: the
+    // re-choice may only improve on a split that already stands.
+    try {
+      const SplitModelChoice choice = ChooseSplitModel(cl, c, &current);
+      if (choice.spec == current.spec || !(choice.mse < kModelSwitch * choice.parent_mse)) continue;
+      cl.SetBasis(c, MakeBasis(choice.spec, cl.Fit(choice.spec, c, choice.start, 0, -1, false), c));
+      changed = true;
+    } catch (const Error& e) {
+      std::fprintf(stderr, "  warning: %s; cluster %d keeps its model\n", e.what(), c);
+    }
   }
   if (changed) Refine(cl, iterations, true, stop);
 }
