@@ -66,7 +66,7 @@ void SplitCluster(Clustering& cl, int k, const std::vector<int>& side, const std
 // out, and the split lost for the ceramic's worse fit. `knew`: the new
 // half's cluster as split (k the other).
 void RechooseHalfModels(Clustering& cl, int k, int knew, int iterations, const std::atomic<bool>* stop) {
-  if (knew != cl.K() - 1 || knew == k) return;  // the refinement removed a cluster
+  if (knew != cl.K() - 1) return;  // the refinement removed a cluster
   bool changed = false;
   for (int c : {k, knew}) {
     if (stop && *stop) return;

@@ -124,7 +124,8 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
   // (gather.cc), so an indirect irradiance scales alike.
   // Texels that see no part of the object (all of a convex one) get no
   // indirect light.
-  const std::vector<char> sees_object = TexelsThatSeeTheObject(*g, o);
+  rep.sees_object = TexelsThatSeeTheObject(*g, o);
+  const std::vector<char>& sees_object = rep.sees_object;
   auto trace = [&](const std::vector<Rgb>& rho, const char* what) {
     const Material lambert = LambertMaterial(*g, rho);
     const RayTracer tracer(lambert.mesh);
@@ -197,7 +198,7 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
 }
 
 std::vector<Rgb> TraceIndirectWithMaterial(const Scene& scene, const GatherResult& g, const Material& material,
-                                           const InterreflectionOptions& o) {
+                                           const InterreflectionOptions& o, const std::vector<char>* sees_object_in) {
   o.Check();
   const SampleSet& s = g.samples;
   if (size_t(s.num_texels) != g.atlas.texels.size() || material.width != g.atlas.width ||
@@ -205,7 +206,10 @@ std::vector<Rgb> TraceIndirectWithMaterial(const Scene& scene, const GatherResul
     throw Error("internal: interreflection: samples, atlas and material disagree on the texels");
   std::vector<Rgb> out(s.size(), Rgb::Zero());
   if (o.bounces == 0 || s.size() == 0) return out;
-  const std::vector<char> sees_object = TexelsThatSeeTheObject(g, o);
+  if (sees_object_in && sees_object_in->size() != size_t(s.num_texels))
+    throw Error("internal: interreflection: the texels seeing the object are of another atlas");
+  const std::vector<char> traced = sees_object_in ? std::vector<char>() : TexelsThatSeeTheObject(g, o);
+  const std::vector<char>& sees_object = sees_object_in ? *sees_object_in : traced;
   const RayTracer tracer(material.mesh);
   const MaterialShader shader(material);
   const std::vector<LightPaths> paths = PathsPerImage(scene, tracer, shader);

@@ -62,6 +62,9 @@ struct InterreflectionReport {
   double removed_share = 0;      // sum of removed over sum of y (all channels)
   double samples_over_5pc = 0;   // share of samples that lost more than 5 % of their value
   double max_share = 0;          // largest share removed from one sample
+  // Per texel: whether it sees some part of the object (traced when
+  // bounces > 0; the second pass reuses it).
+  std::vector<char> sees_object;
   std::string Summary() const;
 };
 
@@ -77,8 +80,11 @@ InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g,
 // every sample is traced again: the texel's own BRDF (`material`'s weights
 // at the texel, which must be on g's atlas) receives it, `material` shades
 // every other point, directions from LightPaths' glossy mixture. Per sample
-// and channel in y's units; zero on texels that see nothing of the object.
+// and channel in y's units; zero on texels that see nothing of the object
+// (`sees_object`: the first pass's InterreflectionReport::sees_object for
+// g's atlas; null: traced here).
 std::vector<Rgb> TraceIndirectWithMaterial(const Scene& scene, const GatherResult& g, const Material& material,
-                                           const InterreflectionOptions& o);
+                                           const InterreflectionOptions& o,
+                                           const std::vector<char>* sees_object = nullptr);
 
 }  // namespace svbrdf

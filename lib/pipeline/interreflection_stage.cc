@@ -14,7 +14,8 @@ std::string InterreflectionPass2Report::Summary() const {
 
 InterreflectionPass2Report RemoveInterreflectionWithSearchMaterials(const Scene& scene,
                                                                     const std::array<std::vector<float>, 3>& raw,
-                                                                    const InterreflectionOptions& io, GatherResult* g,
+                                                                    const InterreflectionOptions& io,
+                                                                    const InterreflectionReport& first, GatherResult* g,
                                                                     const SvbrdfEstimate& search) {
   SampleSet& s = g->samples;
   for (int c = 0; c < 3; ++c)
@@ -27,7 +28,7 @@ InterreflectionPass2Report RemoveInterreflectionWithSearchMaterials(const Scene&
   if (search.search.weights.size() != g->atlas.texels.size() * size_t(K) * 3)
     throw Error("internal: interreflection 2nd pass: the split search's weights do not match");
   const Material m = MixedMaterial(search.search.basis, search.search.weights, g->atlas, g->mesh);
-  const std::vector<Rgb> indirect = TraceIndirectWithMaterial(scene, *g, m, io);
+  const std::vector<Rgb> indirect = TraceIndirectWithMaterial(scene, *g, m, io, &first.sees_object);
   InterreflectionPass2Report rep;
   std::vector<double> change(K, 0.0), signal(K, 0.0);
   for (int64_t i = 0; i < s.size(); ++i) {

@@ -24,10 +24,12 @@ struct InterreflectionPass2Report {
 };
 
 // `raw`: g->samples' values before the first pass (same samples, same
-// order); `search`: a SearchSvbrdf result on g's atlas. Sets g->samples' values.
+// order); `first`: the first pass's report (its texels that see the object);
+// `search`: a SearchSvbrdf result on g's atlas. Sets g->samples' values.
 InterreflectionPass2Report RemoveInterreflectionWithSearchMaterials(const Scene& scene,
                                                                     const std::array<std::vector<float>, 3>& raw,
-                                                                    const InterreflectionOptions& io, GatherResult* g,
+                                                                    const InterreflectionOptions& io,
+                                                                    const InterreflectionReport& first, GatherResult* g,
                                                                     const SvbrdfEstimate& search);
 
 }  // namespace svbrdf

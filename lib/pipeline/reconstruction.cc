@@ -216,7 +216,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
         y = std::move(sub);
       }
     timer.Start("interreflection, 2nd pass");
-    const InterreflectionPass2Report r = RemoveInterreflectionWithSearchMaterials(scene, raw_y, io, &g, est);
+    const InterreflectionPass2Report r = RemoveInterreflectionWithSearchMaterials(scene, raw_y, io, interreflection, &g, est);
     std::fprintf(stderr, "  %s\n", r.Summary().c_str());
     interreflection_pass2 = {{"changed_share", r.changed_share}, {"max_material_change", r.max_change}};
     timer.Start("fit + cluster");
