@@ -493,6 +493,23 @@ TEST(ImageIo, SaturationOfIntegerFiles) {
   EXPECT_DOUBLE_EQ(SaturatedFraction(b, &mask), 0.5);
 }
 
+TEST(ImageIo, SaturationOfHalfFloatFiles) {
+  TempDir dir;
+  Image a(4, 1, 3, 0.25f);
+  a.at(1, 0, 0) = 65504.0f;  // half's largest finite value: where a clipping writer puts raw maxima
+  a.at(2, 0, 1) = 1e30f;     // beyond half: infinity once written
+  a.at(3, 0, 2) = 65000.0f;  // bright, representable: not saturated
+  WriteImage(dir / "h.exr", a, PixelFormat::kHalf);
+  const Image b = ReadImage(dir / "h.exr");
+  EXPECT_EQ(b.saturation_level, 65504.0f);
+  EXPECT_TRUE(IsHighDynamicRange(b));
+  EXPECT_DOUBLE_EQ(SaturatedFraction(b), 0.5);
+  // Float files have no clipping level; integer files are not HDR.
+  WriteImage(dir / "f.exr", a, PixelFormat::kFloat);
+  EXPECT_TRUE(std::isinf(ReadImage(dir / "f.exr").saturation_level));
+  EXPECT_FALSE(IsHighDynamicRange(Image(2, 2, 3)));
+}
+
 TEST(ImageIo, LabelImageRoundTrip) {
   TempDir dir;
   Image ids(3, 2, 1);

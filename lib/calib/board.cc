@@ -170,7 +170,7 @@ Image ToDisplayGrey(const Image& image, bool linear_input) {
 BoardDetection DetectBoard(const Image& image, const BoardSpec& board) {
   board.Check();
   BoardDetection det;
-  const cv::Mat grey = ToCv8(ToDisplayGrey(image, !std::isfinite(image.saturation_level)));
+  const cv::Mat grey = ToCv8(ToDisplayGrey(image, IsHighDynamicRange(image)));
   std::vector<cv::Point2f> pts;
   std::vector<int> ids;
   if (board.pattern == BoardPattern::kChessboard) {

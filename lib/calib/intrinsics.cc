@@ -282,7 +282,7 @@ void WriteCalibration(const CalibrationResult& r, const std::vector<std::string>
     const auto& v = r.views[k];
     if (!v.used || k >= paths.size()) continue;
     const Image img = ReadImage(paths[k]);
-    cv::Mat grey = ToCv8(ToDisplayGrey(img, !std::isfinite(img.saturation_level))), bgr;
+    cv::Mat grey = ToCv8(ToDisplayGrey(img, IsHighDynamicRange(img))), bgr;
     cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
     for (size_t i = 0; i < v.points.size(); ++i) {
       const cv::Point2d p(v.points[i].x() - 0.5, v.points[i].y() - 0.5);

@@ -410,7 +410,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       r.reason = kKept;
     }, 256);
     long kept = 0, signal = 0;
-    const long invalid_before = st.invalid;
+    const long invalid_before = st.invalid, saturated_before = st.saturated;
     for (long t = 0; t < nt; ++t) {
       const Record& r = recs[t];
       ++st.candidates;
@@ -438,6 +438,14 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     if (st.invalid > invalid_before)
       st.warnings.push_back(Msg(view, ": ", st.invalid - invalid_before,
                                 " samples rejected for non-finite or negative pixel values (a broken HDR merge?)"));
+    // Saturated samples are dropped one by one; a view that loses most of
+    // its lit samples that way was overexposed (or its file clips: a half
+    // EXR at 65504), which the user should hear about by name.
+    const long saturated = st.saturated - saturated_before;
+    if (saturated > 0 && saturated >= kept)
+      st.warnings.push_back(Msg(view, ": ", saturated, " of ", saturated + kept,
+                                " lit samples are saturated (pixel value >= ", img.saturation_level,
+                                "): lower the exposure"));
     st.kept += kept;
     st.kept_per_image.push_back(kept);
     progress.Tick();
@@ -446,7 +454,9 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   // Named after the scene: a wrong camera, pose or light there is the usual cause.
   if (st.kept == 0)
     throw Error(Msg(scene.Resolve("scene.json"), ": no usable samples in ", scene.images.size(),
-                    " views (check cameras, poses, lights and masks): ", st.Report()));
+                    st.saturated > 0 ? " views (every lit sample is saturated: overexposed photos): "
+                                     : " views (check cameras, poses, lights and masks): ",
+                    st.Report()));
   if (st.signal == 0 || double(st.signal) < options.min_signal_fraction * double(st.kept))
     throw Error(Msg(scene.Resolve("scene.json"), ": no signal: only ", st.signal, " of ", st.kept, " kept samples in ", scene.images.size(),
                     " views are above the noise floor (pixel value ", options.noise_floor,

@@ -22,6 +22,9 @@ std::string LowerExtension(const std::string& path) {
   return ext;
 }
 
+// Largest finite half-float value: where a half file clips.
+constexpr float kHalfMax = 65504.0f;
+
 bool IsFloatType(OIIO::TypeDesc t) {
   return t.basetype == OIIO::TypeDesc::FLOAT || t.basetype == OIIO::TypeDesc::HALF ||
          t.basetype == OIIO::TypeDesc::DOUBLE;
@@ -60,7 +63,9 @@ Image ReadImage(const std::string& path, ColorSpace space) {
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data()))
     throw Error(Msg(path, ": cannot read image: ", in->geterror()));
   const bool is_float = IsFloatType(spec.format);
-  img.saturation_level = is_float ? std::numeric_limits<float>::infinity() : 1.0f;
+  img.saturation_level = spec.format.basetype == OIIO::TypeDesc::HALF ? kHalfMax
+                         : is_float                                  ? std::numeric_limits<float>::infinity()
+                                                                     : 1.0f;
   img.bits = is_float ? 0 : int(spec.format.size() * 8);
   // The scene's colour space applies to integer files only: EXR/HDR are linear by definition.
   const std::string ext = LowerExtension(path);

@@ -10,7 +10,9 @@ struct Image {
   int width = 0, height = 0, channels = 0;
   std::vector<float> pixels;
   // Largest value the file's format can hold (1 for integer formats after
-  // normalisation, +inf for float files); values >= this are saturated.
+  // normalisation, 65504 for half-float files, +inf for float files);
+  // values >= this are saturated. A camera's raw values clipped into a
+  // half-float EXR land on half's largest finite value, not on infinity.
   float saturation_level = 1.0f;
   // Bits per channel of an integer file (8, 16; what one step of the value
   // is: 1 / (2^bits - 1)); 0 for float files and images made in memory.
@@ -24,6 +26,10 @@ struct Image {
   // (pixel centres at +0.5), clamped at borders.
   float Bilinear(double px, double py, int c) const;
 };
+
+// Whether the image holds linear values beyond [0, 1] (a float or half file,
+// an HDR merge): shown tone-mapped rather than clamped.
+inline bool IsHighDynamicRange(const Image& img) { return img.saturation_level > 1.0f; }
 
 enum class ColorSpace { kLinear, kSRGB };
 enum class PixelFormat { kFloat, kHalf, kUInt16, kUInt8 };

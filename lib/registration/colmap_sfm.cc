@@ -52,7 +52,7 @@ ColmapModel RunColmapSfm(const std::vector<std::string>& paths, const Camera& ca
     const fs::path copy = images / ColmapImageName(p);
     if (fs::exists(copy)) throw Error(Msg("colmap: two images named ", copy.filename().string()));
     const Image img = ReadImage(p);
-    WriteImage(copy.string(), ToDisplayGrey(img, !std::isfinite(img.saturation_level)), PixelFormat::kUInt8,
+    WriteImage(copy.string(), ToDisplayGrey(img, IsHighDynamicRange(img)), PixelFormat::kUInt8,
                ColorSpace::kLinear);
   }
   std::string params;

@@ -393,6 +393,27 @@ TEST(Gather, BadCapturesFailClearly) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("images[0]"), std::string::npos) << e.what();
   }
+  // Every photo overexposed: a half EXR clips at 65504. The error says so and
+  // names the views.
+  {
+    const std::string sat_dir = dir + "_saturated";
+    fs::remove_all(sat_dir);
+    fs::copy(dir, sat_dir, fs::copy_options::recursive);
+    const Scene sat = LoadScene(sat_dir + "/scene.json");
+    for (const ImageEntry& e : sat.images) {
+      const Image photo = ReadImage(sat.Resolve(e.file));
+      WriteImage(sat.Resolve(e.file), Image(photo.width, photo.height, photo.channels, 65504.0f), PixelFormat::kHalf);
+    }
+    try {
+      Gather(sat, go);
+      FAIL() << "expected an error";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("saturated"), std::string::npos) << what;
+      EXPECT_NE(what.find("images[1] (" + sat.images[1].file + ")"), std::string::npos) << what;
+    }
+    fs::remove_all(sat_dir);
+  }
   // Mesh not in view: every camera looks away.
   Scene away = scene;
   for (auto& im : away.images) im.cam_from_world.translation.z() = -100;
