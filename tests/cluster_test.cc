@@ -373,6 +373,57 @@ TEST(Cluster, SplitModelChoiceReportsTheIncumbentsError) {
   EXPECT_DOUBLE_EQ(again.mse, again.parent_mse);
 }
 
+// A split whose half the remaining materials explain as well is a blend or
+// a part of a material (split_search.cc rejects it, as PruneMaterials would
+// after the search): one material split in two leaves a half that earns
+// nothing, two materials each earn most of the error.
+TEST(Cluster, WeakerSplitHalfSeparatesPartsFromMaterials) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Lambert(0.1, 0.3, 0.6)};
+  const int T = 160;
+  std::vector<int> label(T);
+  for (int t = 0; t < T; ++t) label[t] = t < 80 ? 0 : 1;
+  const SampleSet s = MakeSamples(truth, label, 8);
+  ReconstructOptions o = Quiet();
+  Clustering cl(s, LineAtlas(T), o);
+  cl.assign() = label;
+  cl.SetBasis(0, truth[0]);
+  cl.SetBasis(1, truth[1]);
+  std::vector<double> sse;
+  cl.HeldoutRmse(false, &sse);
+  const SplitHalfTest materials = WeakerSplitHalf(cl, 0, 1, sse);
+  EXPECT_GT(materials.drop, 0.5);
+  EXPECT_GT(materials.z, 3.0);
+  // The second material in two parts (the same reflectance, a slightly
+  // different fit): either part alone explains the other's texels.
+  BasisMaterial part = truth[1];
+  part.params[0] *= 1.01;
+  cl.SetBasis(2, part);
+  for (int t = 120; t < T; ++t) cl.assign()[t] = 2;
+  cl.HeldoutRmse(false, &sse);
+  const SplitHalfTest parts = WeakerSplitHalf(cl, 1, 2, sse);
+  EXPECT_TRUE(parts.half == 1 || parts.half == 2);
+  EXPECT_LT(parts.drop, ReconstructOptions().prune_min_drop);
+}
+
+// Two materials with a wide 50/50 blend band between them: the search may
+// split the band off (it lowers the error by the fits it cleans), but such a
+// half is explained by the two materials; it counts as a failed split (the
+// search stops sooner) and pruning removes it.
+TEST(Cluster, ABlendBandIsAFailedSplitNotAMaterial) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.25, 0.1), Glossy(0.05, 2.0, 40)};
+  const int n = 24;
+  std::vector<std::vector<double>> mix;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const double w = x < 11 ? 1.0 : x < 14 ? 0.5 : 0.0;
+      mix.push_back({w, 1.0 - w});
+    }
+  const SampleSet s = MakeMixedSamples(truth, mix, 47);
+  const SvbrdfEstimate est = EstimateSvbrdf(s, GridAtlas(n, n), Quiet());
+  EXPECT_EQ(est.basis.size(), 2u);
+  EXPECT_GE(est.blend_splits, 1);
+}
+
 // Two colours, but no split is ever good enough (min_z out of reach): the
 // search backtracks and tries the next feature set, and the colour-only
 // features give the same halves as all features. That state must not be

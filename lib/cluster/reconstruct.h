@@ -233,6 +233,7 @@ struct SvbrdfEstimate {
   int texels_filled = 0;
   std::vector<ClusterStep> history;
   int states_revisited = 0;       // splits that led back to an evaluated state (skipped, not re-evaluated)
+  int blend_splits = 0;           // splits kept as failed ones: a half the other materials explain (split_search.cc)
   std::vector<ModelChoice> model_choices;
   double heldout_rmse = 0;        // final, with the chosen weights mode
   double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;

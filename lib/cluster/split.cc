@@ -266,6 +266,21 @@ SplitModelChoice ChooseSplitModel(const Clustering& cl, int k, const BasisMateri
   return choice;
 }
 
+SplitHalfTest WeakerSplitHalf(const Clustering& cl, int k, int knew, const std::vector<double>& with_sse) {
+  SplitHalfTest weaker;
+  for (int r : {k, knew}) {
+    Clustering trial = cl;
+    trial.RemoveBasis(r);
+    trial.Assign();
+    std::vector<double> without_sse;
+    trial.HeldoutRmse(false, &without_sse);
+    const SplitHalfTest t{r, TrimmedDrop(without_sse, with_sse),
+                          std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse))};
+    if (weaker.half < 0 || t.drop < weaker.drop) weaker = t;
+  }
+  return weaker;
+}
+
 BasisMaterial FitSplitModel(const Clustering& cl, int k, const BasisMaterial* parent) {
   const SplitModelChoice c = ChooseSplitModel(cl, k, parent);
   if (!c.screened) return MakeBasis(c.spec, cl.Fit(c.spec, k, c.start), k);

@@ -272,6 +272,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const double total_drop = 1.0 - (h * h) / std::max(1e-300, best * best);
     bool passes = own_test;
     bool interleaved = false;  // fails the coherence test: no look-ahead past it
+    bool blend = false;        // a half the other materials explain (below)
     std::string control_note;
     if (passes && o.force_clusters == 0 && o.min_split_coherence > 0) {
       // Materials form regions (SplitCoherence); halves interleaved texel by
@@ -338,6 +339,25 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
                           same ? Msg(" (refined into the same partition: ", 100 * agreement, " % of texels)")
                                : std::string(passes ? "" : ": model error, not materials"));
     }
+    if (passes && o.force_clusters == 0 && o.prune_materials && cl.K() == int(parent.basis.size()) + 1) {
+      // A part of a material or a blend, not a new one: a split can pass by
+      // what one half gains (its refit, a model switch) while the other
+      // half's texels are explained about as well by the remaining
+      // materials (WeakerSplitHalf; PruneMaterials' test and bar, with the
+      // search's weights). Such a state is kept (its fits were made on
+      // cleaner texels, and later splits can build on it: a half that
+      // carved a blend zone out of a diffuse material left that material's
+      // fit clean, and the result 0.7 dB better after pruning, on a Mitsuba
+      // bunny), but counts as a failed split: the search stops sooner
+      // instead of looking for splits past an extra material that pruning
+      // then removes.
+      const SplitHalfTest weak = WeakerSplitHalf(cl, k, cl.K() - 1, texel_sse);
+      if (!(weak.drop >= o.prune_min_drop && weak.z >= o.min_z)) {
+        blend = true;
+        control_note += Msg("; half ", weak.half, " is explained by the other materials (", 100 * weak.drop,
+                            " % lower with it, z = ", weak.z, "): kept as a failed split");
+      }
+    }
     est.history.push_back({cl.K(), cl.TrainRmse(), h, false, key});
     std::string sizes;
     for (int j = 0; j < cl.K(); ++j)
@@ -345,13 +365,16 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     log(Msg(cl.K(), " clusters (split of cluster ", k, ", features ", variants_tried[k], "; ", sizes, " texels): held-out RMSE ", h, " (", 100 * drop,
             " % below the best so far without the worst 2 % of texels, ", 100 * total_drop, " % with them; z = ", z, control_note, ")"));
     if (o.force_clusters > 0 || passes) {
-      log(Msg("kept: ", cl.K(), " clusters (after ", fails, " failed splits in a row)"));
+      if (blend) ++est.blend_splits;
+      log(blend ? Msg("kept: ", cl.K(), " clusters, but as a failed split (", fails + 1, " in a row)")
+                : Msg("kept: ", cl.K(), " clusters (after ", fails, " failed splits in a row)"));
       states.push_back({cl.basis(), cl.assign(), h, texel_sse});
       best = h;
       best_state = states.size() - 1;
-      fails = 0;
       lookahead = false;
       std::fill(variants_tried.begin(), variants_tried.end(), 0);
+      if (!blend) fails = 0;
+      else if (++fails >= o.max_failed_splits) break;
     } else if (!lookahead && !interleaved && cl.K() < target) {
       // Look one split ahead before giving up: splitting 3 materials into 2
       // clusters can be worse than 1 cluster (a colour mixed into the wrong

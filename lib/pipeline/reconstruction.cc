@@ -319,6 +319,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     summary["cluster_history"].push_back(
         {{"clusters", h.clusters}, {"train_rmse", h.train_rmse}, {"heldout_rmse", h.heldout_rmse}, {"accepted", h.accepted}});
   summary["states_revisited"] = est.states_revisited;
+  summary["blend_splits"] = est.blend_splits;
   summary["pruned_materials"] = nlohmann::json::array();
   for (const auto& p : est.pruned)
     summary["pruned_materials"].push_back({{"model", p.label}, {"texels", p.texels}, {"heldout_drop", p.drop}, {"z", p.z}});
