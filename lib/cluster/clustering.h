@@ -225,7 +225,7 @@ FitResult RobustFit(const ModelSpec& spec, const SampleSet& s, const std::vector
 // `stop` (optional) set: returns at the next refit, the state unusable.
 void Refine(Clustering& cl, int iterations, bool fits_current = false, const std::atomic<bool>* stop = nullptr);
 
-// Progress lines with the time since the estimate started.
+// Progress lines with the wall and CPU time since the process started.
 class StageLog {
  public:
   explicit StageLog(bool on);
