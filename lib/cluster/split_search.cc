@@ -345,12 +345,12 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // half's texels are explained about as well by the remaining
       // materials (WeakerSplitHalf; PruneMaterials' test and bar, with the
       // search's weights). Such a state is kept (its fits were made on
-      // cleaner texels, and later splits can build on it: a half that
-      // carved a blend zone out of a diffuse material left that material's
-      // fit clean, and the result 0.7 dB better after pruning, on a Mitsuba
-      // bunny), but counts as a failed split: the search stops sooner
-      // instead of looking for splits past an extra material that pruning
-      // then removes.
+      // cleaner texels, and later splits can build on it: on a Mitsuba
+      // bunny a half that carved a blend zone out of a diffuse material left
+      // that material's fit clean, and the result better after pruning;
+      // docs/measurements.md), but counts as a failed split: the search
+      // stops sooner instead of looking for splits past an extra material
+      // that pruning then removes.
       const SplitHalfTest weak = WeakerSplitHalf(cl, k, cl.K() - 1, texel_sse);
       if (!(weak.drop >= o.prune_min_drop && weak.z >= o.min_z)) {
         blend = true;
