@@ -160,6 +160,7 @@ class Clustering {
   // Held-out RMSE of the weights (both passes when m.smooth).
   double HeldoutRmse(const WeightModel& m, std::vector<double>* per_texel = nullptr) const;
   // The split search's measure: one pass, trace prior, options().mix_radius.
+  WeightModel SearchWeightModel(bool per_channel = false) const;
   double HeldoutRmse(bool per_channel = false, std::vector<double>* per_texel = nullptr) const;
   // Squared error (and sample-channel count) of the held-out samples of
   // usable texels under the given weights (texel-major [t][k][c]).

@@ -10,11 +10,9 @@ namespace svbrdf {
 
 namespace {
 
-struct Removal {
+struct Removal : MaterialRemoval {
   int k = -1;
-  int texels = 0;          // of material k before its removal
-  double drop = 0, z = 0;  // how much lower the error is with material k (TrimmedDrop, paired z)
-  std::vector<int> assign;  // the labels without material k
+  int texels = 0;  // of material k before its removal
 };
 
 // Share of cluster k's samples (all clusters when k < 0) that are held out.
@@ -24,6 +22,16 @@ double HeldOutShare(const Clustering& cl, int k) {
 }
 
 }  // namespace
+
+MaterialRemoval ScoreRemoval(const Clustering& cl, int k, const WeightModel& m, const std::vector<double>& with_sse) {
+  Clustering trial = cl;
+  trial.RemoveBasis(k);
+  trial.Assign();
+  std::vector<double> without_sse;
+  trial.HeldoutRmse(m, &without_sse);
+  return {TrimmedDrop(without_sse, with_sse),
+          std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse)), trial.assign()};
+}
 
 int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstimate* est, const StageLog& log) {
   const ReconstructOptions& o = cl.options();
@@ -58,13 +66,10 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
       // pull their colours towards the blend, which the weights' prior on
       // their sum then cannot undo (the basis refit on the weights, step 4b,
       // follows).
-      Clustering trial = cl;
-      trial.RemoveBasis(k);
-      trial.Assign();
-      std::vector<double> without_sse;
-      trial.HeldoutRmse(m, &without_sse);
-      Removal r{k, int(std::count(cl.assign().begin(), cl.assign().end(), k)), TrimmedDrop(without_sse, with_sse),
-                std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse)), trial.assign()};
+      Removal r;
+      static_cast<MaterialRemoval&>(r) = ScoreRemoval(cl, k, m, with_sse);
+      r.k = k;
+      r.texels = int(std::count(cl.assign().begin(), cl.assign().end(), k));
       lines += Msg("; m", k, " (", cl.basis()[k].spec.Label(), ", ", r.texels, " texels) ", 100 * r.drop,
                    " % lower with it, z = ", r.z);
       const bool earns = r.drop >= o.prune_min_drop && r.z >= o.min_z;

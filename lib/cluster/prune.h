@@ -26,6 +26,18 @@
 
 namespace svbrdf {
 
+// Material k removed from `cl` (its texels join the remaining material that
+// explains them best, the others keep their fits): how much lower the
+// held-out error under `m` is with it (TrimmedDrop against `with_sse`, the
+// per-texel held-out squared errors of `cl` under `m`), the paired z of that
+// drop, and the labels without it. Pruning's test; the split search asks it
+// of a split's halves (WeakerSplitHalf).
+struct MaterialRemoval {
+  double drop = 0, z = 0;
+  std::vector<int> assign;
+};
+MaterialRemoval ScoreRemoval(const Clustering& cl, int k, const WeightModel& m, const std::vector<double>& with_sse);
+
 // Returns how many materials were removed (est->model_choices renumbered,
 // est->heldout_rmse measured again with `m`, which stays the weight model).
 int PruneMaterials(Clustering& cl, const WeightModel& m, SvbrdfEstimate* est, const StageLog& log);

@@ -8,6 +8,7 @@
 
 #include "cluster/model_selection.h"
 #include "cluster/nnls.h"
+#include "cluster/prune.h"
 #include "cluster/stats.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -269,14 +270,8 @@ SplitModelChoice ChooseSplitModel(const Clustering& cl, int k, const BasisMateri
 SplitHalfTest WeakerSplitHalf(const Clustering& cl, int k, int knew, const std::vector<double>& with_sse) {
   SplitHalfTest weaker;
   for (int r : {k, knew}) {
-    Clustering trial = cl;
-    trial.RemoveBasis(r);
-    trial.Assign();
-    std::vector<double> without_sse;
-    trial.HeldoutRmse(false, &without_sse);
-    const SplitHalfTest t{r, TrimmedDrop(without_sse, with_sse),
-                          std::max(PairedZ(without_sse, with_sse), BoundedPairedZ(without_sse, with_sse))};
-    if (weaker.half < 0 || t.drop < weaker.drop) weaker = t;
+    const MaterialRemoval removal = ScoreRemoval(cl, r, cl.SearchWeightModel(), with_sse);
+    if (weaker.half < 0 || removal.drop < weaker.drop) weaker = {r, removal.drop, removal.z};
   }
   return weaker;
 }

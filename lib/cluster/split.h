@@ -63,12 +63,11 @@ struct SplitModelChoice {
 SplitModelChoice ChooseSplitModel(const Clustering& cl, int k, const BasisMaterial* parent);
 
 // The weaker half of a split into clusters k and knew: each half removed in
-// turn (its texels join the remaining material that explains them best, the
-// others keep their fits, as PruneMaterials does), the held-out error's drop
-// with it (TrimmedDrop against `with_sse`, the per-texel held-out squared
-// errors of `cl` as it is) and the drop's paired z; the half with the
-// smaller drop. A half the other materials explain about as well is a blend
-// or a part of a material, not a material (split_search.cc).
+// turn as pruning removes a material (ScoreRemoval, prune.h), under the
+// search's weights (`with_sse`: the per-texel held-out squared errors of
+// `cl` as it is); the half with the smaller drop. A half the other
+// materials explain about as well is a blend or a part of a material, not a
+// material (split_search.cc).
 struct SplitHalfTest {
   int half = -1;
   double drop = 0, z = 0;

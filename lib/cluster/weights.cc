@@ -226,11 +226,15 @@ double Clustering::HeldoutRmse(const WeightModel& m, std::vector<double>* per_te
   return n ? std::sqrt(sse / n) : 0.0;
 }
 
-double Clustering::HeldoutRmse(bool per_channel, std::vector<double>* per_texel) const {
+WeightModel Clustering::SearchWeightModel(bool per_channel) const {
   WeightModel m;
   m.per_channel = per_channel;
   m.radius = o_.mix_radius;
-  return HeldoutRmse(m, per_texel);
+  return m;
+}
+
+double Clustering::HeldoutRmse(bool per_channel, std::vector<double>* per_texel) const {
+  return HeldoutRmse(SearchWeightModel(per_channel), per_texel);
 }
 
 double Clustering::HeldoutSse(const std::vector<float>& weights, int64_t* count) const {

@@ -454,8 +454,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   // Named after the scene: a wrong camera, pose or light there is the usual cause.
   if (st.kept == 0)
     throw Error(Msg(scene.Resolve("scene.json"), ": no usable samples in ", scene.images.size(),
-                    st.saturated > 0 ? " views (every lit sample is saturated: overexposed photos): "
-                                     : " views (check cameras, poses, lights and masks): ",
+                    st.saturated > 0 ? Msg(" views (", st.saturated, " lit samples saturated: overexposed photos?): ")
+                                     : std::string(" views (check cameras, poses, lights and masks): "),
                     st.Report()));
   if (st.signal == 0 || double(st.signal) < options.min_signal_fraction * double(st.kept))
     throw Error(Msg(scene.Resolve("scene.json"), ": no signal: only ", st.signal, " of ", st.kept, " kept samples in ", scene.images.size(),
