@@ -527,6 +527,52 @@ TEST(Weights, FollowAWideBlendNextToAHighlight) {
   EXPECT_LT(WeightError(after, mix), 0.5 * WeightError(before, mix));
 }
 
+// A blend wider than the old largest radius (a logistic ramp of scale 5
+// texels over 80 texels: a quarter of the way from either side is still
+// 12 texels from the centre): the choice takes a radius of 16 or more and the
+// weights follow the ramp.
+TEST(Weights, AWideSoftBlendTakesAWideRadius) {
+  const std::vector<BasisMaterial> truth = {Glossy(0.05, 2.0, 40), Lambert(0.6, 0.25, 0.1)};
+  const int n = 80;
+  std::vector<std::vector<double>> mix;
+  for (int t = 0; t < n; ++t) {
+    const double w = 1.0 / (1.0 + std::exp(-(t - 39.5) / 5.0));
+    mix.push_back({1.0 - w, w});
+  }
+  const SampleSet s = MakeMixedSamples(truth, mix, 67);
+  const ReconstructOptions o = Quiet();
+  Clustering cl(s, LineAtlas(n), o);
+  for (int k = 0; k < 2; ++k) cl.SetBasis(k, truth[k]);
+  for (int t = 0; t < n; ++t) cl.assign()[t] = mix[t][1] > 0.5;
+  SvbrdfEstimate est;
+  const WeightModel chosen = ChooseWeightModel(cl, &est, StageLog(false));
+  std::vector<float> w;
+  cl.FinalWeights(chosen, &w, nullptr);
+  EXPECT_FALSE(chosen.per_channel);
+  EXPECT_GE(chosen.radius, 16);
+  EXPECT_LT(WeightError(w, mix), 0.01);
+}
+
+// One basis material (grey) for texels of two colours: scalar weights cannot
+// follow the colour, so the per-channel twin of the best scalar candidate
+// is clearly better and taken.
+TEST(Weights, PerChannelWeightsAreTakenWhereColourVariesWithinAMaterial) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Lambert(0.1, 0.3, 0.6)};
+  const int n = 40;
+  std::vector<std::vector<double>> mix;
+  for (int t = 0; t < n; ++t) mix.push_back({t < n / 2 ? 1.0 : 0.0, t < n / 2 ? 0.0 : 1.0});
+  const SampleSet s = MakeMixedSamples(truth, mix, 71);
+  const ReconstructOptions o = Quiet();
+  Clustering cl(s, LineAtlas(n), o);
+  cl.SetBasis(0, Lambert(0.35, 0.25, 0.35));
+  for (int t = 0; t < n; ++t) cl.assign()[t] = 0;
+  SvbrdfEstimate est;
+  const WeightModel chosen = ChooseWeightModel(cl, &est, StageLog(false));
+  EXPECT_TRUE(chosen.per_channel);
+  EXPECT_TRUE(est.per_channel_weights);
+  EXPECT_LT(est.heldout_rmse_channel, 0.5 * est.heldout_rmse_scalar);
+}
+
 // A mirror-like material beside a bright one: the fits see the mirror's
 // texels nearly black, except where they reflect the lit neighbour (light
 // no material describes). Least-squares weights let the neighbour's

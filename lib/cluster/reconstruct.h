@@ -131,8 +131,9 @@ struct ReconstructOptions {
   // The final weights (step 4) try every radius here (and scalar or per
   // channel weights) and keep the one with the lowest held-out error: blend
   // zones are as wide as the object makes them, in texels as the atlas
-  // makes them (on the default preset the widest radius predicts best).
-  std::vector<int> weight_radii = {2, 4, 8};
+  // makes them (on the default preset the widest radius predicts best; on
+  // scans with soft blends 16 texels and more).
+  std::vector<int> weight_radii = {2, 4, 8, 16, 32};
   std::vector<double> weight_unit_sum_samples = {0.0, 1.0, 1000.0};
   // Step 4b (basis_refit.h): every basis material refitted on the samples
   // of the texels it dominates, the others' share (weights x predictions)

@@ -295,58 +295,66 @@ std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o) {
 }
 
 WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const StageLog& log) {
-  const std::vector<WeightModel> candidates = CandidateWeightModels(cl.options());
-  std::vector<double> rmse(candidates.size());
-  std::vector<std::vector<double>> per_texel(candidates.size());
+  // Scalar weights at every radius and unit-sum prior first; per-channel
+  // weights (three times the unknowns) are then scored once, at the best
+  // scalar candidate's radius and prior, and must beat it clearly. Scoring
+  // per-channel weights at every setting doubled the cost of the choice and
+  // none was taken on the randomized captures' dev half.
+  std::vector<WeightModel> candidates;
+  for (const WeightModel& m : CandidateWeightModels(cl.options()))
+    if (!m.per_channel) candidates.push_back(m);
+  const size_t total = candidates.size() + 1;
+  std::vector<double> rmse;
+  std::vector<std::vector<double>> per_texel;
   size_t best = 0;
   std::string line;
-  // Anytime: past the deadline only the first two candidates (scalar and
-  // per channel at the smallest radius: with one cluster only per-channel
-  // weights can follow colour) are scored, and another only while the time
-  // left exceeds the last one's cost.
-  size_t scored = 0;
+  auto score = [&](const WeightModel& m) {
+    per_texel.emplace_back();
+    rmse.push_back(cl.HeldoutRmse(m, &per_texel.back()));
+    line += Msg(line.empty() ? "" : "; ", m.Label(), " ", rmse.back());
+  };
+  // Anytime: past the deadline the first scalar candidate (the smallest
+  // radius) and its per-channel twin (with one cluster only per-channel
+  // weights can follow colour) are scored, and another scalar one only
+  // while the time left exceeds the last one's cost.
   for (size_t j = 0; j < candidates.size(); ++j) {
     const auto t0 = std::chrono::steady_clock::now();
-    rmse[j] = cl.HeldoutRmse(candidates[j], &per_texel[j]);
-    scored = j + 1;
+    score(candidates[j]);
     if (rmse[j] < rmse[best]) best = j;
-    line += Msg(j ? "; " : "", candidates[j].Label(), " ", rmse[j]);
-    if (j >= 1 && j + 1 < candidates.size() &&
+    if (j + 1 < candidates.size() &&
         cl.options().SecondsLeft() <= std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()) {
-      est->cut_by_deadline.push_back(Msg("mixing-weight choice (", scored, " of ", candidates.size(), " scored)"));
+      est->cut_by_deadline.push_back(Msg("mixing-weight choice (", j + 2, " of ", total, " scored)"));
       break;
     }
   }
-  // Per-channel weights are three times the unknowns of scalar ones: they
-  // are chosen only when clearly better than the best scalar candidate, by
+  std::vector<int64_t> held;
+  for (int k = 0; k < cl.K(); ++k) {
+    const std::vector<int64_t> ids = cl.Ids(k, true);
+    held.insert(held.end(), ids.begin(), ids.end());
+  }
+  const double margin = cl.options().parsimony * SignalRms(cl.samples(), held);
+  auto clearly_worse = [&](size_t a, size_t b) {
+    return rmse[a] - rmse[b] > margin && PairedZ(per_texel[a], per_texel[b]) >= cl.options().model_min_z;
+  };
+  candidates.resize(rmse.size());  // the scored ones (all, unless the deadline cut the choice)
+  const size_t scalar = best;
+  WeightModel channel = candidates[scalar];
+  channel.per_channel = true;
+  candidates.push_back(channel);
+  score(channel);
+  // Per channel only when clearly better than the best scalar candidate, by
   // the model choice's rule (lower by `parsimony` x the signal's RMS and by
   // `model_min_z` standard errors, paired over texels). Without the rule a
   // difference within the noise (the mixed preset's first material round)
   // takes them; with it no capture's held-out PSNR changes.
-  if (candidates[best].per_channel) {
-    size_t scalar = candidates.size();
-    for (size_t j = 0; j < scored; ++j)
-      if (!candidates[j].per_channel && (scalar == candidates.size() || rmse[j] < rmse[scalar])) scalar = j;
-    if (scalar < candidates.size()) {
-      std::vector<int64_t> held;
-      for (int k = 0; k < cl.K(); ++k) {
-        const std::vector<int64_t> ids = cl.Ids(k, true);
-        held.insert(held.end(), ids.begin(), ids.end());
-      }
-      const double margin = cl.options().parsimony * SignalRms(cl.samples(), held);
-      const bool clearly_better =
-          rmse[scalar] - rmse[best] > margin && PairedZ(per_texel[scalar], per_texel[best]) >= cl.options().model_min_z;
-      if (!clearly_better) best = scalar;
-    }
-  }
+  if (clearly_worse(scalar, candidates.size() - 1)) best = candidates.size() - 1;
   const WeightModel& m = candidates[best];
   est->per_channel_weights = m.per_channel;
   est->weight_radius = m.radius;
   est->weight_unit_sum = m.unit_sum_samples;
   est->heldout_rmse = rmse[best];
-  for (size_t j = 0; j < scored; ++j)
-    if (candidates[j].radius == m.radius)
-      (candidates[j].per_channel ? est->heldout_rmse_channel : est->heldout_rmse_scalar) = rmse[j];
+  est->heldout_rmse_scalar = rmse[scalar];
+  est->heldout_rmse_channel = rmse.back();
   log(Msg("weights: ", m.Label(), " (held-out RMSE ", line, ")"));
   return m;
 }

@@ -12,7 +12,9 @@ namespace svbrdf {
 // options().weight_radii, with the per-material prior and the neighbour pass.
 std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o);
 
-// Evaluates every candidate on the held-out samples and returns the best;
+// Evaluates the scalar candidates on the held-out samples, then the
+// per-channel twin of the best of them (kept only when clearly better), and
+// returns the best;
 // records the choice in `est` (per_channel_weights, weight_radius, weight_unit_sum,
 // heldout_rmse and the scalar / per-channel errors at the chosen radius).
 WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
