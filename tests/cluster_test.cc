@@ -573,6 +573,27 @@ TEST(Weights, PerChannelWeightsAreTakenWhereColourVariesWithinAMaterial) {
   EXPECT_LT(est.heldout_rmse_channel, 0.5 * est.heldout_rmse_scalar);
 }
 
+// Past the deadline the weight choice scores the first scalar candidate
+// and its per-channel twin, records the cut, and returns one of the two
+// (before: the per-channel rule read past the scored candidates).
+TEST(Weights, ChoiceCutByTheDeadlineScoresTwoCandidates) {
+  const std::vector<BasisMaterial> truth = {Glossy(0.05, 2.0, 40), Lambert(0.6, 0.25, 0.1)};
+  std::vector<std::vector<double>> mix;
+  for (int t = 0; t < 40; ++t) mix.push_back({t < 20 ? 1.0 : 0.0, t < 20 ? 0.0 : 1.0});
+  const SampleSet s = MakeMixedSamples(truth, mix, 73);
+  ReconstructOptions o = Quiet();
+  o.deadline = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+  Clustering cl(s, LineAtlas(40), o);
+  for (int k = 0; k < 2; ++k) cl.SetBasis(k, truth[k]);
+  for (int t = 0; t < 40; ++t) cl.assign()[t] = mix[t][1] > 0.5;
+  SvbrdfEstimate est;
+  const WeightModel chosen = ChooseWeightModel(cl, &est, StageLog(false));
+  ASSERT_EQ(est.cut_by_deadline.size(), 1u);
+  EXPECT_NE(est.cut_by_deadline[0].find("(2 of "), std::string::npos) << est.cut_by_deadline[0];
+  EXPECT_EQ(chosen.radius, o.weight_radii.front());
+  EXPECT_GT(est.heldout_rmse, 0);
+}
+
 // A mirror-like material beside a bright one: the fits see the mirror's
 // texels nearly black, except where they reflect the lit neighbour (light
 // no material describes). Least-squares weights let the neighbour's
