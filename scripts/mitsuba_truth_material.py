@@ -16,35 +16,12 @@ Usage (Mitsuba venv for numpy and EXR writing):
 import mitsuba as mi, numpy as np, sys, json, os, shutil
 mi.set_variant('scalar_rgb')
 src, cap, out = sys.argv[1:4]
-V=[];VT=[];F=[];FT=[]
-for l in open(src+'/mesh.obj'):
-    p=l.split()
-    if not p: continue
-    if p[0]=='v': V.append([float(x) for x in p[1:4]])
-    elif p[0]=='vt': VT.append([float(x) for x in p[1:3]])
-    elif p[0]=='f':
-        a=[q.split('/') for q in p[1:]]
-        F.append([int(q[0])-1 for q in a]); FT.append([int(q[1])-1 for q in a])
-V=np.array(V);VT=np.array(VT);F=np.array(F);FT=np.array(FT)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mitsuba_truth_weights import rasterise_vertex_weights  # noqa: E402
 w=np.load(cap+'/truth/vertex_weights.npy')
 mat=json.load(open(src+'/material.json'))
 W,H=mat['resolution']
-acc=np.zeros((H,W,3));cnt=np.zeros((H,W))
-for f,ft in zip(F,FT):
-    uv=VT[ft]; P=np.stack([uv[:,0]*W,(1-uv[:,1])*H],1)
-    x0,y0=np.floor(P.min(0)-0.5).astype(int); x1,y1=np.ceil(P.max(0)+0.5).astype(int)
-    xs,ys=np.meshgrid(np.arange(max(x0,0),min(x1+1,W)),np.arange(max(y0,0),min(y1+1,H)))
-    c=np.stack([xs+0.5,ys+0.5],-1).reshape(-1,2)
-    T=np.array([P[1]-P[0],P[2]-P[0]]).T
-    if abs(np.linalg.det(T))<1e-12: continue
-    b=np.linalg.solve(T,(c-P[0]).T).T
-    b0=1-b.sum(1)
-    ok=(b[:,0]>=-0.3)&(b[:,1]>=-0.3)&(b0>=-0.3)
-    bb=np.clip(np.stack([b0,b[:,0],b[:,1]],1),0,1); bb/=bb.sum(1,keepdims=True)
-    val=bb@w[f]
-    for (cx,cy),v,o in zip(c.astype(int),val,ok):
-        if o: acc[cy,cx]+=v; cnt[cy,cx]+=1
-m=cnt>0; acc[m]/=cnt[m][:,None]
+acc,m=rasterise_vertex_weights(src,w)
 for it in range(3):
     fill=np.zeros_like(acc); fc=np.zeros((H,W))
     for dy in (-1,0,1):
