@@ -299,7 +299,7 @@ WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const S
   // weights (three times the unknowns) are then scored once, at the best
   // scalar candidate's radius and prior, and must beat it clearly. Scoring
   // per-channel weights at every setting doubled the cost of the choice and
-  // none was taken on the randomized captures' dev half.
+  // no multi-material scene of the randomized captures' dev half took them.
   std::vector<WeightModel> candidates;
   for (const WeightModel& m : CandidateWeightModels(cl.options()))
     if (!m.per_channel) candidates.push_back(m);
