@@ -73,7 +73,7 @@ SvbrdfEstimate Estimate(const SampleSet& samples, const Atlas& atlas, const Reco
     const std::vector<WeightModel> models = CandidateWeightModels(o);
     WeightModel m = models.front();
     for (const WeightModel& c : models)
-      if (!c.per_channel && c.radius >= m.radius && c.unit_sum_samples >= m.unit_sum_samples) m = c;
+      if (c.radius >= m.radius && c.unit_sum_samples >= m.unit_sum_samples) m = c;
     cl.FinalWeights(m, &est.search.weights, nullptr);
     return est;
   }

@@ -279,18 +279,16 @@ constexpr double kSmoothSamples = 0.3;
 std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o) {
   std::vector<WeightModel> out;
   for (double unit_sum : o.weight_unit_sum_samples)
-  for (int radius : o.weight_radii)
-    for (bool per_channel : {false, true}) {
-      WeightModel m;
-      m.unit_sum_samples = unit_sum;
-      m.per_channel = per_channel;
-      m.radius = radius;
-      m.smooth = true;
-      m.prior_samples = kPriorSamples;
-      m.smooth_samples = kSmoothSamples;
-      m.per_material_prior = true;
-      out.push_back(m);
-    }
+  for (int radius : o.weight_radii) {
+    WeightModel m;
+    m.unit_sum_samples = unit_sum;
+    m.radius = radius;
+    m.smooth = true;
+    m.prior_samples = kPriorSamples;
+    m.smooth_samples = kSmoothSamples;
+    m.per_material_prior = true;
+    out.push_back(m);
+  }
   return out;
 }
 
@@ -300,9 +298,7 @@ WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const S
   // scalar candidate's radius and prior, and must beat it clearly. Scoring
   // per-channel weights at every setting doubled the cost of the choice and
   // no multi-material scene of the randomized captures' dev half took them.
-  std::vector<WeightModel> candidates;
-  for (const WeightModel& m : CandidateWeightModels(cl.options()))
-    if (!m.per_channel) candidates.push_back(m);
+  std::vector<WeightModel> candidates = CandidateWeightModels(cl.options());
   const size_t total = candidates.size() + 1;
   std::vector<double> rmse;
   std::vector<std::vector<double>> per_texel;

@@ -8,8 +8,9 @@
 
 namespace svbrdf {
 
-// The weight models tried: scalar and per channel at every radius of
-// options().weight_radii, with the per-material prior and the neighbour pass.
+// The scalar weight models tried: every radius of options().weight_radii and
+// every unit-sum prior, with the per-material prior and the neighbour pass
+// (ChooseWeightModel adds one per-channel twin).
 std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o);
 
 // Evaluates the scalar candidates on the held-out samples, then the
