@@ -9,7 +9,8 @@ scripts/check_mitsuba_export.py. Writes bench_results/mitsuba_models.{json,md}.
 "material" compares Mitsuba with relight of the ground truth (includes the
 nearest-form error of the family); "as_rendered" with relight of the
 export's as_rendered/ material (the forms as our models: exact for
-roughconductor; for roughplastic ours, so it keeps the base-term difference).
+roughconductor and plastic; for roughplastic ours, so it keeps the base-term
+difference).
 """
 import argparse
 import json
@@ -41,6 +42,10 @@ FAMILIES = {
     "conductor-f82": metals(lambda i: ["conductor-ggx-f82", "conductor-beckmann-f82", "conductor-ggx-f82"][i]),
     "coated-ggx": coated("ggx"),
     "coated-beckmann": coated("beckmann"),
+    "plastic": {"num_materials": 2, "models": ["plastic"] * 2,
+                "params": [{"rd_r": 0.6, "rd_g": 0.07, "rd_b": 0.05, "ior": 1.5},
+                           {"rd_r": 0.08, "rd_g": 0.2, "rd_b": 0.55, "ior": 1.33}],
+                "texture_size": 64, "blend": 0.02},
 }
 
 

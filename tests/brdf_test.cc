@@ -73,12 +73,12 @@ constexpr double kF82MaxError = 0.03;
 // tightly) and restricts them to where the quadrature below resolves the lobe
 // (exponent <= 1000, roughness >= 0.05).
 // Conductors have no amplitudes to rescale (F <= 1 by construction); a
-// coated material's base albedo is scaled to a white maximum.
+// coated or plastic material's base albedo is scaled to a white maximum.
 void MakeEnergyConserving(const ModelSpec& spec, std::vector<double>* p) {
   const std::vector<ParamInfo> params = spec.Params();
   if (spec.family == Family::kConductor || spec.family == Family::kGltf) return;  // bounded by their ranges
-  const bool has_rs =
-      spec.family != Family::kLambert && spec.family != Family::kOrenNayar && spec.family != Family::kCoated;
+  const bool has_rs = spec.family != Family::kLambert && spec.family != Family::kOrenNayar &&
+                      spec.family != Family::kCoated && spec.family != Family::kPlastic;
   double max_sum = 0;
   for (int i = 0; i < static_cast<int>(params.size()); ++i) {
     if (params[i].name == "exponent") (*p)[i] = std::min((*p)[i], 1000.0);
@@ -120,9 +120,9 @@ TEST(ModelSpec, LabelsRoundTripAndAreUnique) {
                         "cook_torrance-ggx-smith-schlick", "cook_torrance-beckmann-nofresnel"})
     EXPECT_EQ(labels.count(l), 1u) << l;
   for (const char* l : {"conductor-ggx", "conductor-beckmann", "conductor-ggx-schlick", "conductor-beckmann-f82",
-                        "coated-ggx", "coated-beckmann", "gltf"})
+                        "coated-ggx", "coated-beckmann", "plastic", "gltf"})
     EXPECT_EQ(labels.count(l), 1u) << l;
-  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u + 1u);
+  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u + 1u + 1u);
 }
 
 TEST(ModelSpec, NamesAreFamilies) {
@@ -165,6 +165,7 @@ TEST(ModelSpec, ParamLayouts) {
   EXPECT_EQ(names("conductor-ggx-f82"),
             (V{"f0_r", "f0_g", "f0_b", "f82_tint_r", "f82_tint_g", "f82_tint_b", "roughness"}));
   EXPECT_EQ(names("coated-ggx"), (V{"rd_r", "rd_g", "rd_b", "roughness", "ior"}));
+  EXPECT_EQ(names("plastic"), (V{"rd_r", "rd_g", "rd_b", "ior"}));
   EXPECT_EQ(names("lafortune-1"),
             (V{"rd_r", "rd_g", "rd_b", "lobe0.rho_r", "lobe0.rho_g", "lobe0.rho_b", "lobe0.cx", "lobe0.cz", "lobe0.n"}));
   const V aniso = names("lafortune-2-aniso");
@@ -195,7 +196,8 @@ TEST(ModelSpec, LinearFlagMarksAmplitudes) {
   for (const ModelSpec& spec : AllModelSpecs())
     for (const ParamInfo& p : spec.Params()) {
       const std::string stem = p.name.substr(p.name.find('.') + 1);  // drop "lobeK."
-      const bool amplitude = (stem.rfind("rd_", 0) == 0 && spec.family != Family::kCoated) ||
+      const bool amplitude = (stem.rfind("rd_", 0) == 0 && spec.family != Family::kCoated &&
+                              spec.family != Family::kPlastic) ||
                              stem.rfind("rs_", 0) == 0 || stem.rfind("rho_", 0) == 0 || stem.rfind("f0_", 0) == 0 ||
                              stem.rfind("base_color_", 0) == 0;
       EXPECT_EQ(p.linear, amplitude) << spec.Label() << " " << p.name;
@@ -622,6 +624,28 @@ TEST(Coated, WhiteBaseUnderSmoothCoatReflectsAll) {
     }
     // A black base leaves the coat's reflection only: about F0 = 0.04 at normal incidence.
     EXPECT_NEAR(Albedo(spec, {0, 0, 0, 0.05, 1.5}, Vec3(0, 0, 1))[0], 0.04, 1e-3) << label;
+  }
+}
+
+// Smooth plastic (plastic.h) against its closed form: at normal incidence
+// rd (1 - F0)^2 / (pi n^2 (1 - rd F_int)); towards grazing light it falls
+// with 1 - F; a white base reflects, with the coat's mirror reflection F
+// (left out of f), all light: albedo + F(mu) = 1 when nothing is absorbed.
+TEST(Plastic, ClosedFormAndWhiteFurnace) {
+  const ModelSpec spec = ModelSpec::FromLabel("plastic");
+  const double n = 1.5, f0 = 0.04, f_int = brdf::DielectricInternalDiffuseReflectance(n);
+  EXPECT_NEAR(f_int, 0.5963, 1e-3);  // 1 - (1 - 0.0918) / 2.25
+  const Rgb f = EvalModelD(spec, std::vector<double>{0.8, 0.4, 0.0, n}.data(), Vec3(0, 0, 1), Vec3(0, 0, 1));
+  EXPECT_NEAR(f[0], 0.8 * (1 - f0) * (1 - f0) / (kPi * n * n * (1 - 0.8 * f_int)), 1e-12);
+  EXPECT_NEAR(f[1], 0.4 * (1 - f0) * (1 - f0) / (kPi * n * n * (1 - 0.4 * f_int)), 1e-12);
+  EXPECT_EQ(f[2], 0.0);
+  const Vec3 grazing = FromAngles(1.4, 0.0);
+  const Rgb g = EvalModelD(spec, std::vector<double>{0.8, 0.8, 0.8, n}.data(), grazing, Vec3(0, 0, 1));
+  EXPECT_NEAR(g[0] / f[0], (1 - brdf::FresnelDielectric(grazing.z(), n)) / (1 - f0), 1e-12);
+  for (double theta : {0.0, 0.7, 1.2}) {
+    const Vec3 wi = FromAngles(theta, 0.3);
+    const double albedo = Albedo(spec, {1, 1, 1, n}, wi)[0];
+    EXPECT_NEAR(albedo + brdf::FresnelDielectric(wi.z(), n), 1.0, 2e-3) << theta;
   }
 }
 

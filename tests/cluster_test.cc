@@ -1029,6 +1029,30 @@ TEST(ModelChoice, HeldOutPhotosBreakTheFoldsTies) {
 // One hold-out rule for every stage (clustering, model choice, normal
 // refinement): whole photos, the share asked for, deterministic for a seed,
 // none when there is one photo.
+// A smooth plastic (a flat coat: no highlight under point lights) is taken
+// as `plastic`, not as a coat at its smallest roughness (whose highlight the
+// photos never show, but relit views would) nor as Lambert (which misses the
+// coat's Fresnel fall-off towards grazing light).
+TEST(ModelChoice, SmoothPlasticIsNotARoughCoatAtItsBound) {
+  BasisMaterial plastic;
+  plastic.spec = ModelSpec::FromLabel("plastic");
+  plastic.params = {0.75, 0.05, 0.7, 1.45};
+  const std::vector<BasisMaterial> truth = {plastic, Lambert(0.3, 0.5, 0.2)};
+  std::vector<int> label(200);
+  for (int t = 0; t < 200; ++t) label[t] = t < 120 ? 0 : 1;
+  const SampleSet s = MakeSamples(truth, label, 53);
+  ReconstructOptions o = Quiet();
+  o.candidate_models = {"lambert", "coated-ggx", "coated-beckmann", "plastic"};
+  Clustering cl(s, LineAtlas(200), o);
+  for (int k = 0; k < 2; ++k) cl.SetBasis(k, Glossy(0.3, 1.0, 10));
+  for (int t = 0; t < 200; ++t) cl.assign()[t] = label[t];
+  SvbrdfEstimate est;
+  SelectModels(cl, &est, StageLog(false), 0);
+  EXPECT_EQ(cl.basis()[0].spec.Label(), "plastic");
+  EXPECT_EQ(cl.basis()[1].spec.Label(), "lambert");
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(cl.basis()[0].params[c], plastic.params[c], 0.03) << c;
+}
+
 // Anytime: model selection runs per cluster while the time left exceeds
 // the predicted (then the measured) cost of one; the others keep their
 // clustering model and the cuts are named.

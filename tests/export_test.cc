@@ -197,6 +197,26 @@ TEST(NearestForm, CoatedIsARoughPlasticWithOurBaseCoupling) {
   }
 }
 
+// Smooth plastic: Mitsuba's `plastic` is our model but for F_int, which
+// Mitsuba takes from Egan & Hilgeman's fit: the base albedo is set so that
+// the internal bounces match, and the form then equals ours.
+TEST(NearestForm, PlasticIsMitsubasPlasticWithOurBaseCoupling) {
+  const BasisMaterial b = Basis("plastic", {{"rd_r", 0.6}, {"rd_g", 0.07}, {"rd_b", 0.95}, {"ior", 1.45}});
+  const NearestForm f = MapToNearestForm(b, Pairs());
+  EXPECT_EQ(f.lobe, NearestForm::Lobe::kPlastic);
+  EXPECT_DOUBLE_EQ(f.ior, 1.45);
+  EXPECT_TRUE(f.rd.isZero());
+  const double ours = brdf::DielectricInternalDiffuseReflectance(1.45);
+  EXPECT_NEAR(f.smooth_internal_reflectance, ours, 2e-3);  // the fit, 0.1-0.6 % off below n 2
+  EXPECT_NE(f.smooth_internal_reflectance, ours);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(f.base[c] / (1 - f.base[c] * f.smooth_internal_reflectance), b.params[c] / (1 - b.params[c] * ours), 1e-12);
+  EXPECT_LT(f.error, 1e-9);
+  const BasisMaterial back = f.AsBasis("x");
+  EXPECT_EQ(back.spec.Label(), "plastic");
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(back.params[i], b.params[i], 1e-12);
+}
+
 TEST(RoughPlastic, MatchesMitsubasOwnEvaluation) {
   // Mitsuba 3.9.1 scalar_rgb, roughplastic int_ior 1.5, ext_ior 1, nonlinear,
   // diffuse_reflectance (0.5, 0.1, 0.9): bsdf.eval (f cos(theta_o)) for wi at

@@ -58,6 +58,8 @@ std::vector<Case> RecoveryCases() {
       {"conductor-ggx", {0.14, 0.43, 1.38, 3.697, 2.455, 1.914, 0.15}, {6}},
       // rd, roughness, ior
       {"coated-ggx", {0.5, 0.3, 0.15, 0.15, 1.5}, {0, 1, 2, 3, 4}},
+      // rd, ior
+      {"plastic", {0.7, 0.05, 0.6, 1.45}, {0, 1, 2, 3}},
   };
 }
 
@@ -156,7 +158,7 @@ TEST(Fit, FootprintSubsamplesRecoverAGlossyCoatThatTheCentreNormalBlurs) {
 // sample by sample, bitwise, for every family, with and without the
 // footprint's sub-samples, over a range and over a list of ids.
 TEST(Fit, BatchedPredictionsAreThePerSampleOnesBitwise) {
-  for (const char* label : {"lambert", "lafortune-2", "cook_torrance-beckmann", "conductor-ggx", "coated-ggx", "gltf"}) {
+  for (const char* label : {"lambert", "lafortune-2", "cook_torrance-beckmann", "conductor-ggx", "coated-ggx", "plastic", "gltf"}) {
     const ModelSpec spec = ModelSpec::FromLabel(label);
     const std::vector<double> params = spec.InitialParams();
     SampleSet set = SynthesizeSamples(spec, params, Synth(700));

@@ -18,6 +18,7 @@ const char* FamilyName(Family f) {
     case Family::kConductor: return "conductor";
     case Family::kCoated: return "coated";
     case Family::kGltf: return "gltf";
+    case Family::kPlastic: return "plastic";
   }
   return "?";
 }
@@ -141,6 +142,9 @@ std::vector<ModelSpec> AllModelSpecs() {
     s.shadowing = Shadowing::kSmith;
     all.push_back(s);
   }
+  ModelSpec plastic;
+  plastic.family = Family::kPlastic;
+  all.push_back(plastic);
   ModelSpec gltf;
   gltf.family = Family::kGltf;
   gltf.distribution = Distribution::kGGX;

@@ -24,6 +24,7 @@ enum class Family {
   kConductor,     // metal: D G1 G1 F / (4 <N|L><N|E>), coloured (complex-index / Schlick / F82) Fresnel, no diffuse
   kCoated,        // coat: D G1 G1 F / (4 <N|L><N|E>) + Lambertian base seen through the coat (coated.h)
   kGltf,          // glTF 2.0 metallic-roughness: baseColor, metallic, roughness (gltf_pbr.h)
+  kPlastic,       // smooth coat: Lambertian base seen through a flat dielectric coat, delta reflection (plastic.h)
 };
 
 enum class Distribution { kBeckmann, kBlinnGaussian, kGGX };

@@ -14,6 +14,7 @@
 #pragma once
 #include "brdf/blinn_phong.h"
 #include "brdf/coated.h"
+#include "brdf/plastic.h"
 #include "brdf/conductor.h"
 #include "brdf/cook_torrance.h"
 #include "brdf/cosine_lobe.h"
@@ -101,6 +102,12 @@ template <class V, class T> void VisitParams(V& v, const ModelSpec&, Coated<T>& 
   v.Scalar(m.n, "ior", "index of refraction of the coat", 1.1, 2.5, 1.5);
 }
 
+// As the coat above: rd is not linear.
+template <class V, class T> void VisitParams(V& v, const ModelSpec&, Plastic<T>& m) {
+  v.Rgb(m.rd, "rd", "albedo of the diffuse base under the smooth coat", 0.0, 1.0, 0.5, false);
+  v.Scalar(m.n, "ior", "index of refraction of the coat", 1.1, 2.5, 1.5);
+}
+
 template <class V, class T> void VisitParams(V& v, const ModelSpec&, GltfPbr<T>& m) {
   v.Rgb(m.base, "base_color", "glTF baseColor", 0.0, 1.0, 0.5);
   v.Scalar(m.metallic, "metallic", "glTF metallic (0 dielectric, 1 metal)", 0.0, 1.0, 0.0);
@@ -144,6 +151,7 @@ template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
       return;
     }
     case Family::kGltf: { GltfPbr<T> m; fn(m); return; }
+    case Family::kPlastic: { Plastic<T> m; fn(m); return; }
   }
 }
 

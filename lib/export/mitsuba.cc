@@ -69,13 +69,16 @@ XmlElement Bitmap(const std::string& name, const std::string& file) {
 }
 
 // One lobe of the sum: a roughconductor with a baked reflectance texture, or a
-// roughplastic with baked coat and base textures (see the header).
+// (rough)plastic with baked coat and base textures (see the header).
 XmlElement Lobe(const NearestForm& f, const std::string& specular, const std::string& base) {
   XmlElement b("bsdf");
-  const bool plastic = f.lobe == NearestForm::Lobe::kRoughPlastic;
-  b.Attr("type", plastic ? "roughplastic" : "roughconductor");
-  b.Add(Named("string", "distribution", f.distribution == Distribution::kGGX ? "ggx" : "beckmann"));
-  b.Add(Named("float", "alpha", XmlNumber(f.alpha)));
+  const bool smooth = f.lobe == NearestForm::Lobe::kPlastic;
+  const bool plastic = smooth || f.lobe == NearestForm::Lobe::kRoughPlastic;
+  b.Attr("type", smooth ? "plastic" : plastic ? "roughplastic" : "roughconductor");
+  if (!smooth) {
+    b.Add(Named("string", "distribution", f.distribution == Distribution::kGGX ? "ggx" : "beckmann"));
+    b.Add(Named("float", "alpha", XmlNumber(f.alpha)));
+  }
   if (plastic) {
     b.Add(Named("float", "int_ior", XmlNumber(f.ior)));
     b.Add(Named("float", "ext_ior", "1"));
@@ -96,6 +99,10 @@ XmlElement Lobe(const NearestForm& f, const std::string& specular, const std::st
 
 json LobeReport(const NearestForm& f) {
   const char* dist = f.distribution == Distribution::kGGX ? "ggx" : "beckmann";
+  if (f.lobe == NearestForm::Lobe::kPlastic)
+    return {{"plugin", "plastic"}, {"int_ior", f.ior}, {"nonlinear", true},
+            {"diffuse_reflectance", {f.base[0], f.base[1], f.base[2]}},
+            {"internal_reflectance_mitsuba", f.smooth_internal_reflectance}};
   if (f.lobe == NearestForm::Lobe::kRoughPlastic)
     return {{"plugin", "roughplastic"}, {"distribution", dist}, {"alpha", f.alpha}, {"int_ior", f.ior},
             {"nonlinear", true}, {"diffuse_reflectance", {f.base[0], f.base[1], f.base[2]}},
@@ -362,7 +369,8 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
     for (size_t i = 0; i < diffuse.pixels.size(); ++i) diffuse.pixels[i] += float(parts * w.pixels[i] * forms[k].rd[i % 3]);
     if (!forms[k].has_lobe()) continue;
     const NearestForm& f = forms[k];
-    const bool plastic = f.lobe == NearestForm::Lobe::kRoughPlastic;
+    const bool smooth = f.lobe == NearestForm::Lobe::kPlastic;
+    const bool plastic = smooth || f.lobe == NearestForm::Lobe::kRoughPlastic;
     Image spec(m.width, m.height, 3, 0.0f), base;
     for (size_t i = 0; i < spec.pixels.size(); ++i) spec.pixels[i] = float(parts * w.pixels[i] * (plastic ? 1.0 : f.rs[i % 3]));
     // by index: names may hold any character
@@ -370,7 +378,7 @@ nlohmann::json ExportMitsuba(const Material& m, const Scene* scene, const Mitsub
     WriteImage((fs::path(dir) / spec_file).string(), spec, PixelFormat::kFloat);
     if (plastic) {
       // Weight x coupling, then the diffuse_reflectance with that coupling in Mitsuba.
-      const double f_int = f.plastic.internal_reflectance;
+      const double f_int = smooth ? f.smooth_internal_reflectance : f.plastic.internal_reflectance;
       base = Image(m.width, m.height, 3, 0.0f);
       for (size_t i = 0; i < base.pixels.size(); ++i) {
         const double b = f.base[i % 3];

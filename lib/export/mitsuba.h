@@ -19,7 +19,7 @@
 //                       the Mitsuba scene holds (used to check the export)
 //
 // Reflectance: each basis material k is mapped to its NearestForm (diffuse +
-// optional roughconductor or roughplastic lobe, exact where a Mitsuba plugin
+// optional roughconductor, roughplastic or plastic lobe, exact where a Mitsuba plugin
 // matches). Instead of blending by the weight maps (blendbsdf weights are
 // scalar and assume sum_k w_k = 1, neither of which holds for our
 // per-channel NNLS weights), the weights are baked into the reflectance

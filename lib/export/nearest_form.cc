@@ -169,6 +169,11 @@ std::vector<double> FormFeatures(const NearestForm& f, const DirectionPairs& d) 
   return out;
 }
 
+// Mitsuba 3's fresnel_diffuse_reflectance(eta) for eta < 1 (fresnel.h: the
+// fit of Egan & Hilgeman 1973), which its `plastic` takes as F_int with
+// eta = 1 / int_ior.
+double MitsubaDiffuseFresnel(double eta) { return -1.4399 * eta * eta + 0.7099 * eta + 0.6681 + 0.0636 / eta; }
+
 }  // namespace
 
 BasisMaterial NearestForm::AsBasis(const std::string& name) const {
@@ -192,6 +197,15 @@ BasisMaterial NearestForm::AsBasis(const std::string& name) const {
         b.params = {rd[0], rd[1], rd[2], rs[0], rs[1], rs[2], alpha, fresnel ? eta[0] : 1.5};
       }
       break;
+    case Lobe::kPlastic: {
+      b.spec.family = Family::kPlastic;
+      const double f_int = brdf::DielectricInternalDiffuseReflectance(ior);
+      Rgb rd_ours;
+      for (int c = 0; c < 3; ++c)
+        rd_ours[c] = BaseForCoupling(base[c] / (1 - base[c] * smooth_internal_reflectance), f_int);
+      b.params = {rd_ours[0], rd_ours[1], rd_ours[2], ior};
+      break;
+    }
     case Lobe::kRoughPlastic: {
       // Invert BaseForCoupling twice: Mitsuba's coupling / base_scale = our g, then our rd with rd / (1 - rd F_int) = g.
       b.spec.family = Family::kCoated;
@@ -218,6 +232,10 @@ Rgb NearestForm::Eval(const Vec3& wi, const Vec3& wo) const {
     for (int c = 0; c < 3; ++c) f[c] += rs[c] * l * (fresnel ? brdf::FresnelConductor(h.dot(wo), eta[c], k[c]) : 1.0);
   } else if (lobe == Lobe::kRoughPlastic) {
     f += plastic.Eval(base, /*nonlinear=*/true, wi, wo);
+  } else if (lobe == Lobe::kPlastic) {  // Mitsuba's plastic.cpp, the delta reflection left out
+    const double through = (1 - brdf::FresnelDielectric(wi.z(), ior)) * (1 - brdf::FresnelDielectric(wo.z(), ior)) /
+                           (kPi * ior * ior);
+    for (int c = 0; c < 3; ++c) f[c] += base[c] * through / (1 - base[c] * smooth_internal_reflectance);
   }
   return f;
 }
@@ -290,6 +308,18 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
                     " vs ours ", coat.f_int, ")");
       }
       break;
+    case Family::kPlastic: {
+      f.lobe = NearestForm::Lobe::kPlastic;
+      f.ior = BasisParam(b, "ior");
+      f.smooth_internal_reflectance = MitsubaDiffuseFresnel(1 / f.ior);
+      const double f_int = brdf::DielectricInternalDiffuseReflectance(f.ior);
+      const Rgb rd = BasisParamRgb(b, "rd");
+      for (int c = 0; c < 3; ++c)
+        f.base[c] = BaseForCoupling(rd[c] / (1 - rd[c] * f_int), f.smooth_internal_reflectance);
+      f.how = Msg("nearest: plastic (nonlinear), the same model up to F_int (Mitsuba's fit ",
+                  f.smooth_internal_reflectance, " vs ours ", f_int, ")");
+      break;
+    }
     default:
       f = FitForm(b, d);
       break;

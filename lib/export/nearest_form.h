@@ -8,6 +8,10 @@
 //   roughplastic     the same lobe with the dielectric F of `ior` (the coat) plus
 //                    a diffuse base rd seen through the rough coat (rough_plastic.h),
 //                    nonlinear = true, ext_ior = 1
+//   plastic          a flat coat of `ior` (delta reflection) over a diffuse base:
+//                    rd (1 - F(mu_i)) (1 - F(mu_o)) / (pi n^2 (1 - rd F_int)),
+//                    nonlinear = true, ext_ior = 1; Mitsuba's F_int is the fit of
+//                    Egan & Hilgeman (1973) to the internal diffuse reflectance
 //
 // D is normalised, alpha = RMS slope for Beckmann and alpha for GGX, Smith
 // masking with the rational Beckmann G1 of Walter et al. 2007: all exactly
@@ -22,6 +26,9 @@
 //   conductor-...-schlick, -f82               nearest: roughconductor with the eta + i k per
 //                                             channel that gives the same F0 and is closest
 //                                             elsewhere (grid over eta; kappa from F0)
+//   plastic                                   exact up to F_int: plastic, the base albedo set so
+//                                             that the internal bounces match ours (ours is
+//                                             exact, Mitsuba's a fit: 0.1 % apart at n 1.5)
 //   coated-{beckmann,ggx}                     nearest: roughplastic; the coat is exact, the
 //                                             base differs (rough-coat transmittance and
 //                                             internal reflectance, rough_plastic.h); the
@@ -50,7 +57,7 @@
 namespace svbrdf {
 
 struct NearestForm {
-  enum class Lobe { kNone, kRoughConductor, kRoughPlastic };
+  enum class Lobe { kNone, kRoughConductor, kRoughPlastic, kPlastic };
   Rgb rd = Rgb::Zero();                   // diffuse part (Mitsuba: diffuse reflectance)
   Lobe lobe = Lobe::kNone;
   Distribution distribution = Distribution::kBeckmann;  // Beckmann or GGX only
@@ -67,6 +74,8 @@ struct NearestForm {
   double base_scale = 1;
   double ior = 1.5;                       // Mitsuba: int_ior (ext_ior = 1)
   RoughPlastic plastic;                   // Mitsuba's transmittance table and F_int for alpha, ior
+  // plastic (smooth): `base` and `ior` as above; Mitsuba's F_int of the flat coat
+  double smooth_internal_reflectance = 0;
 
   bool exact = false;
   std::string how;                        // one line: how the mapping was made

@@ -150,6 +150,9 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
       SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.15);
       SetParam(&b, "ior", 1.5);
       break;
+    case Family::kPlastic:
+      SetParam(&b, "ior", 1.5);
+      break;
     case Family::kGltf:
       SetRgb(&b, "base_color", e.diffuse);
       SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.4);
