@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "atlas/atlas.h"
+#include "brdf/fresnel.h"
 #include "core/error.h"
 #include "raytrace/sphere_mesh.h"
 #include "relight/light_paths.h"
@@ -425,6 +426,71 @@ TEST(Relight, BouncesInsideASphereMatchTheClosedForm) {
     const double expected = rho / kPi * intensity / (radius * radius) * series;
     EXPECT_NEAR(sum / n, expected, 0.01 * expected) << bounces << " bounces";
   }
+}
+
+// The flat coat's mirror reflection (MaterialShader::Mirror) inside a
+// sphere lit from its centre: the lower half a black-based `plastic` (no
+// diffuse light, only its coat's delta reflection), the upper half white
+// Lambert, whose radiance is rho/pi I/r^2 towards every direction. With one
+// bounce a pixel on the plastic shows F(<N|wo>) times that (its mirror ray
+// meets the Lambertian half; one that met the plastic would see nothing).
+TEST(Relight, FlatCoatMirrorsTheRoomInClosedForm) {
+  const double rho = 0.8, intensity = 2.0, ior = 1.5;
+  Mesh mesh = Sphere(1.0, Vec3::Zero(), 60);
+  for (Vec3i& f : mesh.faces) std::swap(f[1], f[2]);  // normals inwards
+  mesh.ComputeNormals();
+  for (const Vec3& p : mesh.positions) mesh.texcoords.emplace_back(0.5, p.z() > 0 ? 0.75 : 0.25);
+  mesh.face_uvs = mesh.faces;
+  Material mat = UniformMaterial(mesh, "lambert", {{"rd_r", rho}, {"rd_g", rho}, {"rd_b", rho}});
+  BasisMaterial coat;
+  coat.name = "m1";
+  coat.spec = ModelSpec::FromLabel("plastic");
+  coat.params = {0, 0, 0, ior};
+  mat.basis.push_back(coat);
+  mat.texture_filter = TextureFilter::kNearest;
+  const int rows = 8;
+  const Vec2 upper = UvToTexel(Vec2(0.5, 0.75), 1, rows);
+  mat.weights = {Image(1, rows, 3, 0.0f), Image(1, rows, 3, 0.0f)};
+  for (int y = 0; y < rows; ++y) {
+    const bool lambert = std::abs(y + 0.5 - upper.y()) < rows / 4.0;
+    for (int c = 0; c < 3; ++c) mat.weights[lambert ? 0 : 1].at(0, y, c) = 1.0f;
+  }
+  Scene s = OneView(Vec3(0, 0, 0.3), PointLight(Vec3::Zero(), intensity), 64, 48, 40);
+  s.images[0].cam_from_world = Rigid3::LookAt(Vec3(0, 0, 0.3), Vec3(0, 0, -1), Vec3::UnitY());
+  RayTracer tracer(mesh);
+  MaterialShader shader(mat);
+  ASSERT_TRUE(shader.HasMirror());
+  RelightOptions o;
+  o.progress = false;
+  o.bounces = 1;
+  o.bounce_samples = 64;
+  const RenderedView v = RenderView(tracer, shader, s, 0, o);
+  const Rigid3 wfc = s.images[0].cam_from_world.Inverse();
+  double rendered = 0, expected = 0;
+  int n = 0, lit = 0;
+  for (int y = 0; y < v.color.height; ++y)
+    for (int x = 0; x < v.color.width; ++x) {
+      const Vec3 d = (wfc.rotation * s.cameras[0].Unproject(Vec2(x + 0.5, y + 0.5))).normalized();
+      const Vec3 o_ = wfc.translation;
+      const double b = o_.dot(d), c = o_.squaredNorm() - 1;
+      const Vec3 hit = o_ + (-b + std::sqrt(b * b - c)) * d;  // from inside: the far root
+      const Vec3 normal = -hit;                               // inwards
+      const Vec3 r = d - 2 * d.dot(normal) * normal;
+      const Vec3 hit2 = hit - 2 * hit.dot(r) * r;  // the chord from hit along r
+      if (hit.z() > -0.15 || std::abs(hit2.z()) < 0.15) continue;  // away from the seam
+      const double f = brdf::FresnelDielectric(normal.dot(-d), ior);
+      expected += hit2.z() > 0 ? f * rho / kPi * intensity : 0.0;
+      lit += hit2.z() > 0;
+      rendered += v.color.at(x, y, 1);
+      ++n;
+    }
+  ASSERT_GT(n, 500);
+  ASSERT_GT(lit, 100);
+  EXPECT_NEAR(rendered / n, expected / n, 0.03 * expected / n);
+  // Without bounces the coat shows nothing: its BRDF has no diffuse part.
+  o.bounces = 0;
+  const RenderedView direct = RenderView(tracer, shader, s, 0, o);
+  EXPECT_LT(direct.color.at(32, 24, 1), 1e-9);
 }
 
 // A glossy point inside a white room: the mixture directions (GlossyMixture)

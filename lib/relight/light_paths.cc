@@ -59,7 +59,7 @@ double GlossyMixture::Pdf(const Frame& frame, const Vec3& mirror, const Vec3& wi
 
 Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const Vec3&)>& first_f,
                          const std::function<Vec3(const Vec3&)>& origin_offset, int bounces, int paths,
-                         Rng& rng, const Vec3* first_wo) const {
+                         Rng& rng, const Vec3* first_wo, const Rgb* first_mirror) const {
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   Rgb sum = Rgb::Zero();
   for (int k = 0; k < paths; ++k) {
@@ -69,7 +69,14 @@ Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const
     Rgb throughput = Rgb::Ones();
     for (int b = 0; b < bounces; ++b) {
       Vec3 wi;
-      if (first_wo) {
+      const Rgb mirror_r = b == 0 ? (first_mirror && first_wo ? *first_mirror : Rgb::Zero())
+                                  : shader_.HasMirror() ? shader_.Mirror(v.uv, v.frame, wo) : Rgb::Zero();
+      const double q = mirror_r.maxCoeff() > 0 ? std::clamp(mirror_r.maxCoeff(), 0.1, 0.5) : 0.0;
+      if (q > 0 && u01(rng) < q) {
+        wi = 2 * frame.n.dot(wo) * frame.n - wo;  // the mirror direction
+        throughput *= mirror_r / q;
+      } else if (first_wo) {
+        if (q > 0) throughput /= 1 - q;
         const double u0 = u01(rng), u1 = u01(rng), u2 = u01(rng);
         const Vec3 mirror = GlossyMixture::Mirror(frame, wo);
         wi = GlossyMixture::Sample(frame, mirror, u0, u1, u2);
@@ -100,9 +107,10 @@ Rgb LightPaths::Indirect(const Frame& first_frame, const std::function<Rgb(const
 }
 
 Rgb LightPaths::Indirect(const Vertex& v, const Vec3& wo, int bounces, int paths, Rng& rng) const {
+  const Rgb mirror = shader_.HasMirror() ? shader_.Mirror(v.uv, v.frame, wo) : Rgb::Zero();
   return Indirect(
       v.frame, [&](const Vec3& wi) { return shader_.Eval(v.uv, v.frame, wi, wo); },
-      [&](const Vec3& wi) { return Offset(v, wi); }, bounces, paths, rng, &wo);
+      [&](const Vec3& wi) { return Offset(v, wi); }, bounces, paths, rng, &wo, &mirror);
 }
 
 }  // namespace svbrdf

@@ -67,10 +67,16 @@ class LightPaths {
   // hemisphere and lobes about the mirror direction of the outgoing one
   // (GlossyMixture below): a glossy BRDF, which cosine directions rarely
   // hit, is then estimated with far less noise, whatever its roughness.
+  // Delta (mirror) reflection (MaterialShader::Mirror: flat coats): at a
+  // vertex that has one, the path follows the mirror direction with
+  // probability q = min(0.5, max(0.1, largest channel of the reflectance R))
+  // and weight R / q, else it samples the BRDF as above with weight
+  // 1 / (1 - q). At the first point only with `first_mirror` (its R for the
+  // viewer's direction) and `first_wo`.
   Rgb Indirect(const Frame& frame, const std::function<Rgb(const Vec3&)>& first_f,
                const std::function<Vec3(const Vec3&)>& origin_offset, int bounces, int paths, Rng& rng,
-               const Vec3* first_wo = nullptr) const;
-  // The same from a ray hit, with the material's BRDF there.
+               const Vec3* first_wo = nullptr, const Rgb* first_mirror = nullptr) const;
+  // The same from a ray hit, with the material's BRDF (and mirror) there.
   Rgb Indirect(const Vertex& v, const Vec3& wo, int bounces, int paths, Rng& rng) const;
 
   // Ray origin just off the surface at v, on the side direction d leaves to.

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "atlas/atlas.h"
+#include "brdf/fresnel.h"
 
 namespace svbrdf {
 
@@ -31,7 +32,24 @@ uint64_t NextShaderId() {
 
 }  // namespace
 
-MaterialShader::MaterialShader(const Material& material) : material_(material), id_(NextShaderId()) {}
+MaterialShader::MaterialShader(const Material& material) : material_(material), id_(NextShaderId()) {
+  for (size_t k = 0; k < material_.basis.size(); ++k) {
+    const BasisMaterial& b = material_.basis[k];
+    if (b.spec.family != Family::kPlastic) continue;
+    const std::vector<ParamInfo> info = b.spec.Params();
+    for (size_t i = 0; i < info.size(); ++i)
+      if (info[i].name == "ior") mirrors_.emplace_back(int(k), b.params[i]);
+  }
+}
+
+Rgb MaterialShader::Mirror(const Vec2& uv, const Frame& frame, const Vec3& wo_world) const {
+  const double mu = frame.n.dot(wo_world);
+  if (mirrors_.empty() || !(mu > 0)) return Rgb::Zero();
+  Rgb r = Rgb::Zero();
+  for (const auto& [k, ior] : mirrors_)
+    r += SampleMap(material_.weights[k], uv, material_.texture_filter).max(0.0) * brdf::FresnelDielectric(mu, ior);
+  return r;
+}
 
 void MaterialShader::Weights(const Vec2& uv, std::vector<Rgb>* w) const {
   w->resize(material_.basis.size());

@@ -3,6 +3,8 @@
 // interpolated from the material's weight maps at the hit's texture coordinate.
 #pragma once
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "io/material.h"
 
@@ -20,6 +22,13 @@ class MaterialShader {
   Vec3 Normal(const Vec2& uv, const Vec3& smooth_normal, const Vec3& dpdu) const;
   // BRDF value (1/sr per channel) for world directions, given the shading frame.
   Rgb Eval(const Vec2& uv, const Frame& frame, const Vec3& wi_world, const Vec3& wo_world) const;
+  // The delta (mirror) reflection that Eval leaves out: the share of the
+  // radiance arriving from the mirror direction of wo_world that leaves
+  // towards wo_world, per channel: sum_k w_k F_k(<N|wo>) over the basis
+  // materials with a flat coat (`plastic`, F its dielectric Fresnel). Zero
+  // when there are none, or wo_world is below the surface.
+  Rgb Mirror(const Vec2& uv, const Frame& frame, const Vec3& wo_world) const;
+  bool HasMirror() const { return !mirrors_.empty(); }
 
   // Light transfer beyond the BRDF (material.light_transfer, and the
   // interpolated material.light_residuals) for a distant light in world
@@ -35,6 +44,8 @@ class MaterialShader {
   // Distinct for every shader ever made: keys the per-thread cache of
   // residual neighbours (a material's address can be reused by the next).
   const uint64_t id_;
+  // Basis materials with a delta reflection: their index and coat ior.
+  std::vector<std::pair<int, double>> mirrors_;
 };
 
 }  // namespace svbrdf
