@@ -51,6 +51,9 @@ std::vector<double> RandomParams(const ModelSpec& spec, Rng& rng) {
   return p;
 }
 
+// The mirror's reflection is all delta (brdf/mirror.h): f = 0.
+bool HasBrdfPart(const ModelSpec& spec) { return spec.family != Family::kMirror; }
+
 int ParamIndex(const ModelSpec& spec, const std::string& name) {
   const std::vector<ParamInfo> params = spec.Params();
   for (int i = 0; i < static_cast<int>(params.size()); ++i)
@@ -120,9 +123,9 @@ TEST(ModelSpec, LabelsRoundTripAndAreUnique) {
                         "cook_torrance-ggx-smith-schlick", "cook_torrance-beckmann-nofresnel"})
     EXPECT_EQ(labels.count(l), 1u) << l;
   for (const char* l : {"conductor-ggx", "conductor-beckmann", "conductor-ggx-schlick", "conductor-beckmann-f82",
-                        "coated-ggx", "coated-beckmann", "plastic", "gltf"})
+                        "coated-ggx", "coated-beckmann", "plastic", "mirror", "gltf"})
     EXPECT_EQ(labels.count(l), 1u) << l;
-  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u + 1u + 1u);
+  EXPECT_EQ(labels.size(), 5u + 6u + 18u + 6u + 2u + 1u + 1u + 1u);
 }
 
 TEST(ModelSpec, NamesAreFamilies) {
@@ -210,6 +213,7 @@ TEST(ModelSpec, LinearFlagMarksAmplitudes) {
 TEST(ModelSpec, ColourParamsActOnTheirChannel) {
   const Vec3 wi = FromAngles(0.5, 0.3), wo = FromAngles(0.45, 0.3 + kPi);  // near mirror: lobes are lit
   for (const ModelSpec& spec : AllModelSpecs()) {
+    if (!HasBrdfPart(spec)) continue;  // the mirror: its F0 acts on MaterialShader::Mirror (relight_test)
     const std::vector<ParamInfo> params = spec.Params();
     const std::vector<double> p0 = spec.InitialParams();
     const Rgb f0 = EvalModelD(spec, p0.data(), wi, wo);
@@ -314,7 +318,7 @@ TEST(Energy, ExplodingLafortuneLobesAreRecognised) {
 TEST(Energy, AlbedoAtMostOne) {
   const double thetas[] = {0.0, 0.5, 1.0, 1.3, 1.5, 1.56};  // up to ~89.4 deg
   for (const ModelSpec& spec : AllModelSpecs()) {
-    if (!ConservesEnergy(spec)) continue;
+    if (!ConservesEnergy(spec) || !HasBrdfPart(spec)) continue;
     Rng rng(StreamSeed(2, std::hash<std::string>()(spec.Label())));
     for (int k = 0; k < 3; ++k) {
       std::vector<double> p = RandomParams(spec, rng);
@@ -649,6 +653,15 @@ TEST(Plastic, ClosedFormAndWhiteFurnace) {
   }
 }
 
+// The mirror has no BRDF part, whatever its F0 and directions.
+TEST(Mirror, HasNoBrdfPart) {
+  const ModelSpec spec = ModelSpec::FromLabel("mirror");
+  EXPECT_EQ(spec.NumParams(), 3);
+  const Vec3 wi = FromAngles(0.4, 0.0);
+  for (const Vec3& wo : {brdf::ReflectLocal(wi), Vec3(0, 0, 1), FromAngles(1.2, 2.0)})
+    EXPECT_TRUE(EvalModelD(spec, std::vector<double>{0.9, 0.6, 0.3}.data(), wi, wo).isZero());
+}
+
 // A white-furnace conductor (f0 = 1) reflects all light at normal incidence
 // up to shadowing; gold reflects its F0 per channel.
 TEST(Conductor, AlbedoIsF0AtNormalIncidence) {
@@ -680,6 +693,7 @@ void EvalJet(const ModelSpec& spec, const std::vector<double>& p, const Vec3& wi
 
 TEST(Autodiff, MatchesCentralDifferences) {
   for (const ModelSpec& spec : AllModelSpecs()) {
+    if (!HasBrdfPart(spec)) continue;
     ASSERT_LE(spec.NumParams(), kJetSize);
     Rng rng(StreamSeed(6, std::hash<std::string>()(spec.Label())));
     int checks = 0, nonzero = 0;  // guards against a vacuous comparison of zeros

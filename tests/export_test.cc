@@ -217,6 +217,19 @@ TEST(NearestForm, PlasticIsMitsubasPlasticWithOurBaseCoupling) {
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(back.params[i], b.params[i], 1e-12);
 }
 
+// A mirror is Mitsuba's smooth `conductor` with the index that keeps its F0.
+TEST(NearestForm, MirrorIsASmoothConductorOfItsF0) {
+  const BasisMaterial b = Basis("mirror", {{"f0_r", 0.9}, {"f0_g", 0.55}, {"f0_b", 0.2}});
+  const NearestForm f = MapToNearestForm(b, Pairs());
+  EXPECT_EQ(f.lobe, NearestForm::Lobe::kConductor);
+  EXPECT_TRUE(f.rd.isZero());
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(brdf::ConductorF0(f.eta[c], f.k[c]), b.params[c], 1e-9) << c;
+  EXPECT_EQ(f.error, 0.0);  // no BRDF part on either side
+  const BasisMaterial back = f.AsBasis("x");
+  EXPECT_EQ(back.spec.Label(), "mirror");
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(back.params[c], b.params[c], 1e-9);
+}
+
 TEST(RoughPlastic, MatchesMitsubasOwnEvaluation) {
   // Mitsuba 3.9.1 scalar_rgb, roughplastic int_ior 1.5, ext_ior 1, nonlinear,
   // diffuse_reflectance (0.5, 0.1, 0.9): bsdf.eval (f cos(theta_o)) for wi at

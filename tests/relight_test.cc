@@ -39,6 +39,8 @@ Material UniformMaterial(const Mesh& mesh, const std::string& label, const std::
   return m;
 }
 
+Vec3 FromAnglesWorld(double theta) { return Vec3(std::sin(theta), 0, std::cos(theta)); }
+
 Mesh Sphere(double radius, const Vec3& centre, int rings = 200) {
   Mesh m = MakeUvSphere(rings, 2 * rings);
   for (Vec3& p : m.positions) p = centre + radius * p;
@@ -491,6 +493,23 @@ TEST(Relight, FlatCoatMirrorsTheRoomInClosedForm) {
   o.bounces = 0;
   const RenderedView direct = RenderView(tracer, shader, s, 0, o);
   EXPECT_LT(direct.color.at(32, 24, 1), 1e-9);
+}
+
+// A mirror's delta reflection is Schlick's curve of its F0, times its weight.
+TEST(Relight, MirrorReflectanceIsSchlicksCurveOfItsF0) {
+  Mesh mesh = Sphere(1.0, Vec3::Zero(), 8);
+  Material mat = UniformMaterial(mesh, "mirror", {{"f0_r", 0.9}, {"f0_g", 0.6}, {"f0_b", 0.3}});
+  MaterialShader shader(mat);
+  ASSERT_TRUE(shader.HasMirror());
+  const Frame frame = Frame::FromNormal(Vec3(0, 0, 1));
+  const Rgb normal = shader.Mirror(Vec2(0.5, 0.5), frame, Vec3(0, 0, 1));
+  EXPECT_NEAR(normal[0], 0.9, 1e-12);
+  EXPECT_NEAR(normal[2], 0.3, 1e-12);
+  const Vec3 wo = FromAnglesWorld(1.2);
+  const double s5 = std::pow(1 - std::cos(1.2), 5);
+  EXPECT_NEAR(shader.Mirror(Vec2(0.5, 0.5), frame, wo)[1], 0.6 + 0.4 * s5, 1e-12);
+  EXPECT_TRUE(shader.Mirror(Vec2(0.5, 0.5), frame, Vec3(0, 0, -1)).isZero());  // below the surface
+  EXPECT_TRUE(MaterialShader(UniformMaterial(mesh, "lambert", {})).Mirror(Vec2(0.5, 0.5), frame, wo).isZero());
 }
 
 // A glossy point inside a white room: the mixture directions (GlossyMixture)

@@ -19,6 +19,7 @@ const char* FamilyName(Family f) {
     case Family::kCoated: return "coated";
     case Family::kGltf: return "gltf";
     case Family::kPlastic: return "plastic";
+    case Family::kMirror: return "mirror";
   }
   return "?";
 }
@@ -145,6 +146,9 @@ std::vector<ModelSpec> AllModelSpecs() {
   ModelSpec plastic;
   plastic.family = Family::kPlastic;
   all.push_back(plastic);
+  ModelSpec mirror;
+  mirror.family = Family::kMirror;
+  all.push_back(mirror);
   ModelSpec gltf;
   gltf.family = Family::kGltf;
   gltf.distribution = Distribution::kGGX;

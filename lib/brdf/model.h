@@ -25,6 +25,7 @@ enum class Family {
   kCoated,        // coat: D G1 G1 F / (4 <N|L><N|E>) + Lambertian base seen through the coat (coated.h)
   kGltf,          // glTF 2.0 metallic-roughness: baseColor, metallic, roughness (gltf_pbr.h)
   kPlastic,       // smooth coat: Lambertian base seen through a flat dielectric coat, delta reflection (plastic.h)
+  kMirror,        // smooth conductor: no BRDF part, a delta reflection of Schlick reflectance F0 (mirror.h)
 };
 
 enum class Distribution { kBeckmann, kBlinnGaussian, kGGX };

@@ -14,6 +14,7 @@
 #pragma once
 #include "brdf/blinn_phong.h"
 #include "brdf/coated.h"
+#include "brdf/mirror.h"
 #include "brdf/plastic.h"
 #include "brdf/conductor.h"
 #include "brdf/cook_torrance.h"
@@ -108,6 +109,10 @@ template <class V, class T> void VisitParams(V& v, const ModelSpec&, Plastic<T>&
   v.Scalar(m.n, "ior", "index of refraction of the coat", 1.1, 2.5, 1.5);
 }
 
+template <class V, class T> void VisitParams(V& v, const ModelSpec&, Mirror<T>& m) {
+  v.Rgb(m.f0, "f0", "mirror reflectance at normal incidence", 0.0, 1.0, 0.5);
+}
+
 template <class V, class T> void VisitParams(V& v, const ModelSpec&, GltfPbr<T>& m) {
   v.Rgb(m.base, "base_color", "glTF baseColor", 0.0, 1.0, 0.5);
   v.Scalar(m.metallic, "metallic", "glTF metallic (0 dielectric, 1 metal)", 0.0, 1.0, 0.0);
@@ -152,6 +157,7 @@ template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
     }
     case Family::kGltf: { GltfPbr<T> m; fn(m); return; }
     case Family::kPlastic: { Plastic<T> m; fn(m); return; }
+    case Family::kMirror: { Mirror<T> m; fn(m); return; }
   }
 }
 

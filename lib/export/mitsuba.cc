@@ -72,9 +72,12 @@ XmlElement Bitmap(const std::string& name, const std::string& file) {
 // (rough)plastic with baked coat and base textures (see the header).
 XmlElement Lobe(const NearestForm& f, const std::string& specular, const std::string& base) {
   XmlElement b("bsdf");
-  const bool smooth = f.lobe == NearestForm::Lobe::kPlastic;
-  const bool plastic = smooth || f.lobe == NearestForm::Lobe::kRoughPlastic;
-  b.Attr("type", smooth ? "plastic" : plastic ? "roughplastic" : "roughconductor");
+  const bool smooth = f.lobe == NearestForm::Lobe::kPlastic || f.lobe == NearestForm::Lobe::kConductor;
+  const bool plastic = f.lobe == NearestForm::Lobe::kPlastic || f.lobe == NearestForm::Lobe::kRoughPlastic;
+  b.Attr("type", f.lobe == NearestForm::Lobe::kConductor ? "conductor"
+                 : f.lobe == NearestForm::Lobe::kPlastic ? "plastic"
+                 : plastic                               ? "roughplastic"
+                                                         : "roughconductor");
   if (!smooth) {
     b.Add(Named("string", "distribution", f.distribution == Distribution::kGGX ? "ggx" : "beckmann"));
     b.Add(Named("float", "alpha", XmlNumber(f.alpha)));
@@ -107,8 +110,10 @@ json LobeReport(const NearestForm& f) {
     return {{"plugin", "roughplastic"}, {"distribution", dist}, {"alpha", f.alpha}, {"int_ior", f.ior},
             {"nonlinear", true}, {"diffuse_reflectance", {f.base[0], f.base[1], f.base[2]}},
             {"internal_reflectance_mitsuba", f.plastic.internal_reflectance}};
-  json j = {{"plugin", "roughconductor"}, {"distribution", dist}, {"alpha", f.alpha},
-            {"specular_reflectance", {f.rs[0], f.rs[1], f.rs[2]}}};
+  json j = f.lobe == NearestForm::Lobe::kConductor
+               ? json{{"plugin", "conductor"}, {"specular_reflectance", {f.rs[0], f.rs[1], f.rs[2]}}}
+               : json{{"plugin", "roughconductor"}, {"distribution", dist}, {"alpha", f.alpha},
+                      {"specular_reflectance", {f.rs[0], f.rs[1], f.rs[2]}}};
   if (f.fresnel) {
     j["eta"] = {f.eta[0], f.eta[1], f.eta[2]};
     j["k"] = {f.k[0], f.k[1], f.k[2]};

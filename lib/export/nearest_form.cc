@@ -197,6 +197,10 @@ BasisMaterial NearestForm::AsBasis(const std::string& name) const {
         b.params = {rd[0], rd[1], rd[2], rs[0], rs[1], rs[2], alpha, fresnel ? eta[0] : 1.5};
       }
       break;
+    case Lobe::kConductor:
+      b.spec.family = Family::kMirror;
+      b.params = {brdf::ConductorF0(eta[0], k[0]), brdf::ConductorF0(eta[1], k[1]), brdf::ConductorF0(eta[2], k[2])};
+      break;
     case Lobe::kPlastic: {
       b.spec.family = Family::kPlastic;
       const double f_int = brdf::DielectricInternalDiffuseReflectance(ior);
@@ -308,6 +312,30 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
                     " vs ours ", coat.f_int, ")");
       }
       break;
+    case Family::kMirror: {
+      // The index per channel that keeps F0 and is closest to Schlick's
+      // curve over cosines 0..1 (eta on a log grid, kappa from F0).
+      f.lobe = NearestForm::Lobe::kConductor;
+      f.rs = Rgb::Ones();
+      f.fresnel = true;
+      const Rgb f0 = BasisParamRgb(b, "f0");
+      for (int ch = 0; ch < 3; ++ch) {
+        const double target = std::min(f0[ch], brdf::ConductorF0(0.02, 10.0));
+        double best = std::numeric_limits<double>::infinity();
+        for (int i = 0; i < 400; ++i) {
+          const double eta = 0.02 * std::pow(6.0 / 0.02, i / 399.0), kappa = brdf::ConductorKappaFromF0(target, eta);
+          double err = 0;
+          for (int j = 0; j <= 100; ++j) {
+            const double c = j / 100.0;
+            const double d = brdf::FresnelConductor(c, eta, kappa) - brdf::FresnelSchlickF0(c, target);
+            err += d * d;
+          }
+          if (err < best) best = err, f.eta[ch] = eta, f.k[ch] = kappa;
+        }
+      }
+      f.how = "nearest: conductor (smooth) with the eta + i k per channel that keeps F0 and is closest to Schlick's curve";
+      break;
+    }
     case Family::kPlastic: {
       f.lobe = NearestForm::Lobe::kPlastic;
       f.ior = BasisParam(b, "ior");

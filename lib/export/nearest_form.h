@@ -8,6 +8,8 @@
 //   roughplastic     the same lobe with the dielectric F of `ior` (the coat) plus
 //                    a diffuse base rd seen through the rough coat (rough_plastic.h),
 //                    nonlinear = true, ext_ior = 1
+//   conductor        a smooth conductor: a delta reflection of the exact Fresnel of
+//                    eta + i k per channel (no BRDF part), specular_reflectance = weight
 //   plastic          a flat coat of `ior` (delta reflection) over a diffuse base:
 //                    rd (1 - F(mu_i)) (1 - F(mu_o)) / (pi n^2 (1 - rd F_int)),
 //                    nonlinear = true, ext_ior = 1; Mitsuba's F_int is the fit of
@@ -29,6 +31,9 @@
 //   plastic                                   exact up to F_int: plastic, the base albedo set so
 //                                             that the internal bounces match ours (ours is
 //                                             exact, Mitsuba's a fit: 0.1 % apart at n 1.5)
+//   mirror                                    nearest: conductor (smooth), the eta + i k per
+//                                             channel that keeps F0 and is closest to
+//                                             Schlick's curve over the cosines
 //   coated-{beckmann,ggx}                     nearest: roughplastic; the coat is exact, the
 //                                             base differs (rough-coat transmittance and
 //                                             internal reflectance, rough_plastic.h); the
@@ -57,7 +62,7 @@
 namespace svbrdf {
 
 struct NearestForm {
-  enum class Lobe { kNone, kRoughConductor, kRoughPlastic, kPlastic };
+  enum class Lobe { kNone, kRoughConductor, kRoughPlastic, kPlastic, kConductor };
   Rgb rd = Rgb::Zero();                   // diffuse part (Mitsuba: diffuse reflectance)
   Lobe lobe = Lobe::kNone;
   Distribution distribution = Distribution::kBeckmann;  // Beckmann or GGX only

@@ -270,6 +270,18 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   // for the estimate's weights; the normal stage saw them unsmoothed.
   SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
 
+  // A mirror shows what it reflects: only where the object sees itself
+  // (interreflection traced) is there anything to fit it to.
+  MirrorReport mirrors;
+  if (interreflection.removed_share > 0 && job.mirror.enabled && eo.SecondsLeft() > 0) {
+    timer.Start("mirrors");
+    MirrorOptions mo = job.mirror;
+    mo.bounces = std::max(0, interreflection.bounces - 1);
+    const bool raw_match = raw_y[0].size() == size_t(g.samples.size());
+    mirrors = FitMirrors(scene, g, eo, mo, &est, raw_match ? &raw_y : nullptr);
+    for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
+  }
+
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);
   if (nr.kept) {
@@ -304,6 +316,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["render_target"] = RenderTargetName(target);
   summary["candidate_models"] = eo.candidate_models;
   summary["merge"] = {{"merges", merge.merges}, {"tried", merge.lines}};
+  summary["mirrors"] = {{"replaced", mirrors.replaced}, {"tried", mirrors.lines}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
   summary["weight_unit_sum"] = est.weight_unit_sum;

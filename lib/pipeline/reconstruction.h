@@ -15,6 +15,7 @@
 #include "normals/refine.h"
 #include "photometric/dictionary_fit.h"
 #include "pipeline/merge_stage.h"
+#include "pipeline/mirror_stage.h"
 #include "pipeline/normal_stage.h"
 
 namespace svbrdf {
@@ -27,6 +28,7 @@ struct ReconstructionJob {
   NormalOptions normals;  // hold-out split, seed and threads are taken from `estimate`
   NormalAlternationOptions alternation;  // normals <-> materials bootstrap (normal_stage.h)
   MergeOptions merge;                    // same-family materials merged in the refined frames (merge_stage.h)
+  MirrorOptions mirror;                  // smooth conductors recognised by what they reflect (mirror_stage.h)
   // Space of the written normal map (io/normal_map_space.h); the photo check
   // renders the map in it. World is the format before "normal_map_space".
   NormalMapSpace normal_map_space = NormalMapSpace::kTangent;

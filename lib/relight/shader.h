@@ -25,8 +25,9 @@ class MaterialShader {
   // The delta (mirror) reflection that Eval leaves out: the share of the
   // radiance arriving from the mirror direction of wo_world that leaves
   // towards wo_world, per channel: sum_k w_k F_k(<N|wo>) over the basis
-  // materials with a flat coat (`plastic`, F its dielectric Fresnel). Zero
-  // when there are none, or wo_world is below the surface.
+  // materials with a flat coat (`plastic`, F its dielectric Fresnel) or a
+  // mirror (`mirror`, F Schlick's of its F0). Zero when there are none, or
+  // wo_world is below the surface.
   Rgb Mirror(const Vec2& uv, const Frame& frame, const Vec3& wo_world) const;
   bool HasMirror() const { return !mirrors_.empty(); }
 
@@ -44,8 +45,14 @@ class MaterialShader {
   // Distinct for every shader ever made: keys the per-thread cache of
   // residual neighbours (a material's address can be reused by the next).
   const uint64_t id_;
-  // Basis materials with a delta reflection: their index and coat ior.
-  std::vector<std::pair<int, double>> mirrors_;
+  // Basis materials with a delta reflection: their index and either the
+  // coat's ior (`plastic`: dielectric Fresnel) or F0 (`mirror`: Schlick).
+  struct MirrorPart {
+    int k;
+    double ior;
+    Rgb f0;
+  };
+  std::vector<MirrorPart> mirrors_;
 };
 
 }  // namespace svbrdf

@@ -111,7 +111,8 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
   b.name = Msg("m", i);
   b.spec = ModelSpec::FromLabel(label.empty() ? e.label : label);
   b.params = b.spec.InitialParams();
-  if (b.spec.family != Family::kConductor && b.spec.family != Family::kGltf) SetRgb(&b, "rd", e.diffuse);
+  if (b.spec.family != Family::kConductor && b.spec.family != Family::kGltf && b.spec.family != Family::kMirror)
+    SetRgb(&b, "rd", e.diffuse);
   switch (b.spec.family) {
     case Family::kLambert:
       break;
@@ -152,6 +153,9 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
       break;
     case Family::kPlastic:
       SetParam(&b, "ior", 1.5);
+      break;
+    case Family::kMirror:  // a metal has no diffuse colour: gold's F0, whatever the entry
+      SetRgb(&b, "f0", Rgb(0.95, 0.65, 0.33));
       break;
     case Family::kGltf:
       SetRgb(&b, "base_color", e.diffuse);

@@ -1,0 +1,59 @@
+// The mirror stage of `reconstruct` (after the normal refinement): a basis
+// material that is a smooth conductor is recognised by what its mirror
+// direction sees, and replaced by the `mirror` model (brdf/mirror.h).
+//
+// Why: under point and directional lights a polished metal reflects the
+// lights towards the camera at single points only; its photos show the
+// object itself, reflected. Every BRDF model fits that as (nearly) black,
+// and relit views then miss the reflections. Here, for each sample of the
+// material's texels, the radiance arriving from the mirror direction of the
+// sample's viewer is traced with the estimate's materials (direct light at
+// the point it meets, plus its indirect light), and the mirror's F0 per
+// channel is the linear least-squares fit of y = (others' share) +
+// w (F0 + (1 - F0)(1 - mu)^5) L on the training photos' samples. The mirror
+// replaces the material when it predicts the held-out photos' samples
+// better by the model choice's rule (lower RMSE by `parsimony` x the
+// signal's RMS and by `model_min_z` standard errors, paired over texels).
+// Only materials that reflect little of the light directly are tried
+// (largest directional albedo below MirrorOptions::max_direct_albedo): a
+// mirror reflects none.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "cluster/reconstruct.h"
+#include "gather/gather.h"
+#include "io/scene.h"
+
+namespace svbrdf {
+
+struct MirrorOptions {
+  bool enabled = true;
+  double max_direct_albedo = 0.1;
+  int bounces = 1;  // indirect bounces of the light at the point the mirror sees
+  int paths = 2;    // per sample
+  void Check() const;
+};
+
+struct MirrorReport {
+  std::vector<std::string> lines;  // one per tried material
+  int replaced = 0;
+};
+
+// Fits mirrors to the materials of `est` (see above) on the samples of `g`;
+// `eo` gives the held-out photos, the rule and the threads.
+// `raw`: the samples before the interreflection stage removed the indirect
+// light it traced with the search's materials (null: g's own): what a
+// mirror reflects is that light, so the mirror is fitted and tested on
+// them (a texel's y plus its mirror weight times what was removed).
+MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const ReconstructOptions& eo,
+                        const MirrorOptions& o, SvbrdfEstimate* est,
+                        const std::array<std::vector<float>, 3>* raw = nullptr);
+
+// The least-squares F0 of y = base + w (F0 + (1 - F0) s5) L over samples,
+// per channel, clamped to [0, 1] (0 without signal): the F0 solve above.
+double MirrorF0(const std::vector<double>& y, const std::vector<double>& base, const std::vector<double>& w,
+                const std::vector<double>& s5, const std::vector<double>& l);
+
+}  // namespace svbrdf
