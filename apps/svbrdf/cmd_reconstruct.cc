@@ -128,6 +128,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_flag("--merge,!--no-merge", job->merge.enabled,
               "when refined normals are kept: merge basis materials that one material explains as well in the refined\n"
               "frames, before the material rounds (undoes splits the bumps caused; on by default, --no-merge: off)");
+  c->add_flag("--mirrors,!--no-mirrors", job->mirror.enabled,
+              "where interreflection was traced: try dark basis materials as mirrors (smooth conductors), fitted to\n"
+              "what their mirror direction sees, kept by held-out error (on by default, --no-mirrors: off)");
   c->add_option("--ps-normal-rounds", job->photometric_normal_rounds,
                 "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search\n"
                 "(where the Lambertian start misfits, --ps-search-misfit; 0 = the Lambertian start alone)");

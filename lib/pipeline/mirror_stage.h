@@ -29,7 +29,7 @@
 namespace svbrdf {
 
 struct MirrorOptions {
-  bool enabled = true;
+  bool enabled = true;  // CLI --mirrors / --no-mirrors
   double max_direct_albedo = 0.1;
   int bounces = 1;  // indirect bounces of the light at the point the mirror sees
   int paths = 2;    // per sample
