@@ -37,7 +37,8 @@ namespace {
 struct MirrorSamples {
   std::vector<int64_t> ids;       // into the sample set
   std::vector<Rgb> base, own, l;  // others' share, the material's own share (as fitted), mirror radiance (y units)
-  std::vector<double> w, s5;      // the material's weight (channel mean), (1 - mu)^5
+  std::vector<double> w;          // the material's weight (channel mean)
+  std::vector<Rgb> s5;            // (1 - mu)^5, over the footprint's normals weighted by their radiance
 };
 
 }  // namespace
@@ -90,6 +91,7 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
     ParallelFor(long(texels.size()), eo.threads, [&](long j) {
       const int t = texels[j];
       const Texel& tx = g.atlas.texels[t];
+      const Frame frame = Frame::FromNormalTangent(tx.normal, tx.tangent);
       const Vec3 origin = tx.position + tx.normal * LightPaths::kSceneScale;
       MirrorSamples& m = per[j];
       for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
@@ -97,8 +99,7 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
         const LightSample ls = lp.LightAt(tx.position);
         if (!(ls.normal_irradiance > 0).all()) continue;
         const Vec3 wo = (lp.eye() - tx.position).normalized();
-        const double mu = tx.normal.dot(wo);
-        if (!(mu > 0)) continue;
+        if (!(tx.normal.dot(wo) > 0)) continue;
         Rgb base = Rgb::Zero(), own = Rgb::Zero();
         for (int q = 0; q < K; ++q) {
           const Rgb wq = weight(t, q);
@@ -107,26 +108,44 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
           (q == k ? own : base) += f;
         }
         // The radiance arriving from the mirror direction, in y's units
-        // (y_c = radiance_c m / E_c, m the mean of E: gather.cc).
-        const Vec3 r = 2 * mu * tx.normal - wo;
-        Rgb l = Rgb::Zero();
-        Hit hit;
-        if (tracer.Intersect(origin, r, &hit)) {
+        // (y_c = radiance_c m / E_c, m the mean of E: gather.cc): about each
+        // of the footprint's normals (the pixel integrates a surface that
+        // turns within it, SampleSet::footprint), weighted as its lookup.
+        Rgb l = Rgb::Zero(), l_s5 = Rgb::Zero();
+        auto mirror = [&](const Vec3& n, double weight, uint64_t stream) {
+          const double mu = n.dot(wo);
+          if (!(mu > 0) || !(weight > 0)) return;
+          const Vec3 r = 2 * mu * n - wo;
+          Hit hit;
+          if (!tracer.Intersect(origin, r, &hit)) return;
           const LightPaths::Vertex v = lp.At(hit);
-          l = lp.Direct(v, -r);
+          Rgb lj = lp.Direct(v, -r);
           if (o.bounces > 0) {
-            Rng rng(StreamSeed(eo.seed ^ 0x6d6972726f72ULL, uint64_t(i)));
-            l += lp.Indirect(v, -r, o.bounces, o.paths, rng);
+            Rng rng(StreamSeed(eo.seed ^ 0x6d6972726f72ULL, uint64_t(i), stream));
+            lj += lp.Indirect(v, -r, o.bounces, o.paths, rng);
           }
+          l += weight * lj;
+          l_s5 += weight * std::pow(1 - std::min(mu, 1.0), 5) * lj;
+        };
+        if (s.HasFootprint()) {
+          const float* fp = &s.footprint[size_t(i) * 3 * SampleSet::kFootprintSubsamples];
+          for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, fp += 3)
+            mirror(frame.ToWorld(Vec3(fp[0], fp[1], 1.0).normalized()), fp[2], uint64_t(j));
+        } else {
+          mirror(tx.normal, 1.0, 0);
         }
         const double mean_e = ls.normal_irradiance.mean();
-        for (int c = 0; c < 3; ++c) l[c] *= mean_e / ls.normal_irradiance[c];
+        Rgb s5 = Rgb::Zero();
+        for (int c = 0; c < 3; ++c) {
+          s5[c] = l[c] > 0 ? l_s5[c] / l[c] : 0.0;
+          l[c] *= mean_e / ls.normal_irradiance[c];
+        }
         m.ids.push_back(i);
         m.base.push_back(base);
         m.own.push_back(own);
         m.l.push_back(l);
         m.w.push_back(weight(t, k).mean());
-        m.s5.push_back(std::pow(1 - std::min(mu, 1.0), 5));
+        m.s5.push_back(s5);
       }
     }, 8);
     // F0 per channel on the training photos' samples.
@@ -137,7 +156,7 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
         for (size_t e = 0; e < m.ids.size(); ++e) {
           if (held[s.image[m.ids[e]]]) continue;
           y.push_back(target(m, e, c)), base.push_back(m.base[e][c]), w.push_back(m.w[e]);
-          s5.push_back(m.s5[e]), l.push_back(m.l[e][c]);
+          s5.push_back(m.s5[e][c]), l.push_back(m.l[e][c]);
         }
       f0[c] = MirrorF0(y, base, w, s5, l);
     }
@@ -155,7 +174,7 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
         ++n;
         for (int c = 0; c < 3; ++c) {
           const double y = s.y[c][i], y_mirror = target(m, e, c);
-          const double mirror = m.base[e][c] + m.w[e] * (f0[c] + (1 - f0[c]) * m.s5[e]) * m.l[e][c];
+          const double mirror = m.base[e][c] + m.w[e] * (f0[c] + (1 - f0[c]) * m.s5[e][c]) * m.l[e][c];
           a += (y - m.base[e][c] - m.own[e][c]) * (y - m.base[e][c] - m.own[e][c]);
           b += (y_mirror - mirror) * (y_mirror - mirror);
         }

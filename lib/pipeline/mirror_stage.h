@@ -7,8 +7,9 @@
 // object itself, reflected. Every BRDF model fits that as (nearly) black,
 // and relit views then miss the reflections. Here, for each sample of the
 // material's texels, the radiance arriving from the mirror direction of the
-// sample's viewer is traced with the estimate's materials (direct light at
-// the point it meets, plus its indirect light), and the mirror's F0 per
+// sample's viewer (about each of its footprint's normals) is traced with
+// the estimate's materials (direct light at the point it meets, plus its
+// indirect light), and the mirror's F0 per
 // channel is the linear least-squares fit of y = (others' share) +
 // w (F0 + (1 - F0)(1 - mu)^5) L on the training photos' samples. The mirror
 // replaces the material when it predicts the held-out photos' samples
