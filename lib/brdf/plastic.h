@@ -21,8 +21,9 @@
 // the base term only. A rough coat fitted to such a material runs to its
 // smallest roughness and renders highlights that the photos never show;
 // here there is none. What the mirror reflects of other surfaces (the
-// object in itself) is not rendered: a share F (4 % at normal incidence
-// for n 1.5) of the light that reaches the surface from them.
+// object in itself: a share F, 4 % at normal incidence for n 1.5, of the
+// light that reaches the surface from them) is rendered by the light paths
+// (MaterialShader::Mirror), not by f.
 //
 // Reciprocal (symmetric in L and E); energy: the base's albedo is at most
 // (1 - F_ext) rd / (n^2 (1 - rd F_int)) <= 1 - F(<N|L>) (brdf_test).

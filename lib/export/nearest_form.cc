@@ -112,6 +112,29 @@ struct OurConductorF {
   double operator()(double c) const { return f82 ? brdf::FresnelF82Tint(c, f0, tint) : brdf::FresnelSchlickF0(c, f0); }
 };
 
+// The complex index eta + i k with normal-incidence reflectance f0 (kappa
+// from ConductorKappaFromF0) whose exact Fresnel is closest to `ours` at
+// `cosine`: min over eta of sum_j weight_j (ours_j - F(cosine_j))^2, eta on
+// a log grid over our range [0.02, 6]; kappa must stay in [0, 10]. Without
+// a reachable eta: (0.02, 10).
+void ClosestConductorIndex(double f0, const std::vector<double>& cosine, const std::vector<double>& weight,
+                           const std::vector<double>& ours, double* eta_out, double* k_out) {
+  double best = std::numeric_limits<double>::infinity();
+  *eta_out = 0.02;
+  *k_out = 10;
+  for (int i = 0; i < 400; ++i) {
+    const double eta = 0.02 * std::pow(6.0 / 0.02, i / 399.0);
+    const double k = brdf::ConductorKappaFromF0(f0, eta);
+    if (k > 10 || std::abs(brdf::ConductorF0(eta, k) - f0) > 1e-9) continue;  // F0 not reachable with this eta
+    double e = 0;
+    for (size_t j = 0; j < cosine.size(); ++j) {
+      const double diff = ours[j] - brdf::FresnelConductor(cosine[j], eta, k);
+      e += weight[j] * diff * diff;
+    }
+    if (e < best) best = e, *eta_out = eta, *k_out = k;
+  }
+}
+
 // Schlick / F82 conductor -> the complex index per channel with the same F0
 // (kappa from ConductorKappaFromF0) whose exact Fresnel is closest to ours
 // where the lobe reflects: min over eta of sum_j L_j^2 (F_ours - F)^2(<h|wo>_j),
@@ -134,20 +157,7 @@ void FitConductorIndex(const BasisMaterial& b, const DirectionPairs& d, NearestF
     for (size_t j = 0; j < d.size(); ++j) ours[j] = our_f(cosine[j]);
     const double f0 = std::min(our_f(1.0), kF0Max);
     clamped |= f0 < our_f(1.0) - 1e-12;
-    double best = std::numeric_limits<double>::infinity();
-    f->eta[ch] = 0.02;
-    f->k[ch] = 10;
-    for (int i = 0; i < 400; ++i) {
-      const double eta = 0.02 * std::pow(6.0 / 0.02, i / 399.0);
-      const double k = brdf::ConductorKappaFromF0(f0, eta);
-      if (k > 10 || std::abs(brdf::ConductorF0(eta, k) - f0) > 1e-9) continue;  // F0 not reachable with this eta
-      double e = 0;
-      for (size_t j = 0; j < d.size(); ++j) {
-        const double diff = ours[j] - brdf::FresnelConductor(cosine[j], eta, k);
-        e += lobe2[j] * diff * diff;
-      }
-      if (e < best) best = e, f->eta[ch] = eta, f->k[ch] = k;
-    }
+    ClosestConductorIndex(f0, cosine, lobe2, ours, &f->eta[ch], &f->k[ch]);
     for (int i = 0; i <= 900; ++i) {
       const double c = std::cos(i * kPi / 1800);  // 0 .. 90 degrees in 0.1 degree steps
       f->max_fresnel_error = std::max(f->max_fresnel_error,
@@ -319,19 +329,12 @@ NearestForm MapToNearestForm(const BasisMaterial& b, const DirectionPairs& d) {
       f.rs = Rgb::Ones();
       f.fresnel = true;
       const Rgb f0 = BasisParamRgb(b, "f0");
+      std::vector<double> cosine(101), weight(101, 1.0), ours(101);
+      for (int j = 0; j <= 100; ++j) cosine[j] = j / 100.0;
       for (int ch = 0; ch < 3; ++ch) {
         const double target = std::min(f0[ch], brdf::ConductorF0(0.02, 10.0));
-        double best = std::numeric_limits<double>::infinity();
-        for (int i = 0; i < 400; ++i) {
-          const double eta = 0.02 * std::pow(6.0 / 0.02, i / 399.0), kappa = brdf::ConductorKappaFromF0(target, eta);
-          double err = 0;
-          for (int j = 0; j <= 100; ++j) {
-            const double c = j / 100.0;
-            const double d = brdf::FresnelConductor(c, eta, kappa) - brdf::FresnelSchlickF0(c, target);
-            err += d * d;
-          }
-          if (err < best) best = err, f.eta[ch] = eta, f.k[ch] = kappa;
-        }
+        for (int j = 0; j <= 100; ++j) ours[j] = brdf::FresnelSchlickF0(cosine[j], target);
+        ClosestConductorIndex(target, cosine, weight, ours, &f.eta[ch], &f.k[ch]);
       }
       f.how = "nearest: conductor (smooth) with the eta + i k per channel that keeps F0 and is closest to Schlick's curve";
       break;

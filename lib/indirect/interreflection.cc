@@ -100,15 +100,6 @@ std::vector<char> TexelsThatSeeTheObject(const GatherResult& g, const Interrefle
   return sees_object;
 }
 
-// Light paths under each image's light, seen from its camera.
-std::vector<LightPaths> PathsPerImage(const Scene& scene, const RayTracer& tracer, const MaterialShader& shader) {
-  std::vector<LightPaths> paths;
-  paths.reserve(scene.images.size());
-  for (const ImageEntry& e : scene.images)
-    paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
-  return paths;
-}
-
 }  // namespace
 
 InterreflectionReport RemoveInterreflection(const Scene& scene, GatherResult* g, const InterreflectionOptions& o) {

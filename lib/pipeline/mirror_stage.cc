@@ -71,10 +71,7 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
   const Material material = MixedMaterial(est->basis, est->weights, g.atlas, g.mesh);
   const RayTracer tracer(material.mesh);
   const MaterialShader shader(material);
-  std::vector<LightPaths> paths;
-  paths.reserve(scene.images.size());
-  for (const ImageEntry& e : scene.images)
-    paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
+  const std::vector<LightPaths> paths = PathsPerImage(scene, tracer, shader);
   const std::vector<char> held = HeldOutImages(int(scene.images.size()), eo.holdout_fraction, eo.seed);
   auto weight = [&](int t, int k) {
     const float* w = &est->weights[(size_t(t) * K + k) * 3];

@@ -113,4 +113,12 @@ Rgb LightPaths::Indirect(const Vertex& v, const Vec3& wo, int bounces, int paths
       [&](const Vec3& wi) { return Offset(v, wi); }, bounces, paths, rng, &wo, &mirror);
 }
 
+std::vector<LightPaths> PathsPerImage(const Scene& scene, const RayTracer& tracer, const MaterialShader& shader) {
+  std::vector<LightPaths> paths;
+  paths.reserve(scene.images.size());
+  for (const ImageEntry& e : scene.images)
+    paths.emplace_back(tracer, shader, scene.LightById(e.light), e.cam_from_world.Inverse());
+  return paths;
+}
+
 }  // namespace svbrdf

@@ -5,6 +5,7 @@
 // texels rather than at pixels.
 #pragma once
 #include <functional>
+#include <vector>
 
 #include "core/rng.h"
 #include "io/scene.h"
@@ -92,5 +93,9 @@ class LightPaths {
   Rigid3 world_from_cam_;
   Vec3 eye_;
 };
+
+// Light paths under each image's light, seen from its camera (index = image);
+// the scene, tracer and shader must outlive them.
+std::vector<LightPaths> PathsPerImage(const Scene& scene, const RayTracer& tracer, const MaterialShader& shader);
 
 }  // namespace svbrdf

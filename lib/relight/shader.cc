@@ -35,11 +35,12 @@ uint64_t NextShaderId() {
 MaterialShader::MaterialShader(const Material& material) : material_(material), id_(NextShaderId()) {
   for (size_t k = 0; k < material_.basis.size(); ++k) {
     const BasisMaterial& b = material_.basis[k];
-    if (b.spec.family == Family::kMirror) mirrors_.push_back({int(k), 0.0, Rgb(b.params[0], b.params[1], b.params[2])});
+    if (b.spec.family == Family::kMirror)
+      mirrors_.push_back({int(k), false, 0.0, Rgb(b.params[0], b.params[1], b.params[2])});
     if (b.spec.family != Family::kPlastic) continue;
     const std::vector<ParamInfo> info = b.spec.Params();
     for (size_t i = 0; i < info.size(); ++i)
-      if (info[i].name == "ior") mirrors_.push_back({int(k), b.params[i], Rgb::Zero()});
+      if (info[i].name == "ior") mirrors_.push_back({int(k), true, b.params[i], Rgb::Zero()});
   }
 }
 
@@ -50,7 +51,7 @@ Rgb MaterialShader::Mirror(const Vec2& uv, const Frame& frame, const Vec3& wo_wo
   const double s5 = std::pow(1 - std::min(mu, 1.0), 5);
   for (const MirrorPart& m : mirrors_) {
     const Rgb w = SampleMap(material_.weights[m.k], uv, material_.texture_filter).max(0.0);
-    r += m.ior > 0 ? Rgb(w * brdf::FresnelDielectric(mu, m.ior)) : Rgb(w * (m.f0 + (1 - m.f0) * s5));
+    r += m.coat ? Rgb(w * brdf::FresnelDielectric(mu, m.ior)) : Rgb(w * (m.f0 + (1 - m.f0) * s5));
   }
   return r;
 }

@@ -3,7 +3,6 @@
 // interpolated from the material's weight maps at the hit's texture coordinate.
 #pragma once
 #include <cstdint>
-#include <utility>
 #include <vector>
 
 #include "io/material.h"
@@ -49,6 +48,7 @@ class MaterialShader {
   // coat's ior (`plastic`: dielectric Fresnel) or F0 (`mirror`: Schlick).
   struct MirrorPart {
     int k;
+    bool coat;   // true: a flat coat of index `ior`; false: a mirror of reflectance `f0`
     double ior;
     Rgb f0;
   };
