@@ -1471,5 +1471,84 @@ TEST(Prune, ABlendZoneIsNotAMaterial) {
   EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24), 0);
 }
 
+// The core of a labelled region: texels whose neighbours up to `rings`
+// rings out share their label. On a cylinder (a seam joins the last column
+// to the first) halved at x = 12 and across the seam, 2 rings leave
+// columns 2-9 and 14-21.
+TEST(CoreFits, CoreTexelsAreTwoRingsInsideEveryBorderAcrossTheSeam) {
+  const int w = 24, h = 12;
+  const Atlas a = CylinderAtlas(w, h);
+  const std::vector<std::vector<int>> nb = SurfaceNeighbours(a);
+  std::vector<int> label(w * h);
+  for (int t = 0; t < w * h; ++t) label[t] = a.texels[t].x < w / 2 ? 0 : 1;
+  const std::vector<char> core = CoreTexels(nb, label, 2);
+  for (int t = 0; t < w * h; ++t) {
+    const int x = a.texels[t].x;
+    const bool expected = (x >= 2 && x <= 9) || (x >= 14 && x <= 21);
+    EXPECT_EQ(bool(core[t]), expected) << "texel " << x << "," << a.texels[t].y;
+  }
+  const std::vector<char> none = CoreTexels(nb, label, 0);
+  EXPECT_EQ(std::count(none.begin(), none.end(), 1), w * h);
+  ReconstructOptions o = Quiet();
+  o.core_fit_rings = 9;
+  EXPECT_THROW(o.Check(), Error);
+}
+
+// Final fits on the core: a sharp lobe beside a soft blend into a Lambertian
+// region is fitted on the pure texels, not pulled broad by the blend zone.
+// The blend zone is left out only while the core holds half of the
+// cluster's samples (a thin cluster keeps all its texels).
+TEST(CoreFits, ASharpMaterialIsFittedOnItsCoreNotItsBlendZone) {
+  const int n = 24;
+  const BasisMaterial sharp = Glossy(0.05, 0.9, 300), matte = Lambert(0.6, 0.6, 0.6);
+  std::vector<std::vector<double>> mix(n * n, std::vector<double>(2, 0.0));
+  std::vector<int> label(n * n);
+  for (int t = 0; t < n * n; ++t) {
+    const int x = t % n;
+    // Columns 8-15 blend from the sharp material to the matte one.
+    const double w = std::clamp((15.5 - x) / 8.0, 0.0, 1.0);
+    mix[t] = {w, 1 - w};
+    label[t] = x < 12 ? 0 : 1;
+  }
+  const SampleSet s = MakeMixedSamples({sharp, matte}, mix, 71);
+  // The blend scales the lobe and adds the matte albedo: on all texels of
+  // the cluster the fit's lobe is too weak and its diffuse part too bright.
+  auto fitted = [&](int rings, const std::string& name) {
+    ReconstructOptions o = Quiet();
+    o.core_fit_rings = rings;
+    Clustering cl(s, GridAtlas(n, n), o);
+    cl.assign() = label;
+    cl.well_seen_fits_ = true;
+    const std::vector<double> p = cl.Fit(sharp.spec, 0, sharp.params).params;
+    const auto info = sharp.spec.Params();
+    for (size_t i = 0; i < info.size(); ++i)
+      if (info[i].name == name) return p[i];
+    ADD_FAILURE() << "no parameter " << name;
+    return 0.0;
+  };
+  EXPECT_NEAR(fitted(2, "rd_r"), 0.05, 0.01);
+  EXPECT_NEAR(fitted(2, "lobe0.rho_r"), 0.9, 0.03);
+  EXPECT_GT(fitted(0, "rd_r"), 0.075);
+  EXPECT_LT(fitted(0, "lobe0.rho_r"), 0.85);
+  ReconstructOptions o = Quiet();
+  o.core_fit_rings = 2;
+  Clustering cl(s, GridAtlas(n, n), o);
+  cl.well_seen_fits_ = true;
+  auto train_ids_of_columns = [&](int below) {
+    std::vector<int64_t> ids;
+    for (int t = 0; t < n * n; ++t)
+      for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i)
+        if (t % n < below && !cl.holdout()[i]) ids.push_back(i);
+    return ids;
+  };
+  // Cluster 0 = columns 0-11: its core (columns 0-9; the grid's edge borders
+  // no other cluster) holds most of its samples.
+  cl.assign() = label;
+  EXPECT_EQ(cl.Ids(0, false), train_ids_of_columns(10));
+  // Cluster 0 = columns 0-2: a core of one column; all its texels are fitted.
+  for (int t = 0; t < n * n; ++t) cl.assign()[t] = t % n < 3 ? 0 : 1;
+  EXPECT_EQ(cl.Ids(0, false), train_ids_of_columns(3));
+}
+
 }  // namespace
 }  // namespace svbrdf

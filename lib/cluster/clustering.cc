@@ -60,13 +60,51 @@ std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
   }
   const int min_count = well_seen_fits_ && 2 * well_train >= all_train ? std::max(o_.min_samples, o_.min_fit_samples)
                                                                        : o_.min_fit_samples;
+  // The core of the cluster (ReconstructOptions::core_fit_rings), when it
+  // holds half of the cluster's training samples or more.
+  std::vector<char> core;
+  if (well_seen_fits_ && k >= 0 && o_.core_fit_rings > 0) {
+    core = CoreTexels(neighbours_, assign_, o_.core_fit_rings);
+    int64_t in_core = 0, in_all = 0;
+    for (int t = 0; t < nt_; ++t) {
+      if (!usable_[t] || train_count_[t] < min_count || assign_[t] != k) continue;
+      in_all += train_count_[t];
+      if (core[t]) in_core += train_count_[t];
+    }
+    if (2 * in_core < in_all) core.clear();
+  }
   std::vector<int64_t> ids;
   for (int t = 0; t < nt_; ++t) {
     if (!usable_[t] || train_count_[t] < min_count || (k >= 0 && assign_[t] != k)) continue;
+    if (!core.empty() && !core[t]) continue;
     for (int64_t i = s_.texel_begin[t]; i < s_.texel_begin[t + 1]; ++i)
       if (bool(holdout_[i]) == heldout) ids.push_back(i);
   }
   return ids;
+}
+
+std::vector<char> CoreTexels(const std::vector<std::vector<int>>& neighbours, const std::vector<int>& label, int rings) {
+  const int nt = int(label.size());
+  // Breadth-first from the texels that touch another label: distance in rings.
+  std::vector<int> dist(nt, rings);
+  std::vector<int> frontier;
+  for (int t = 0; t < nt; ++t)
+    for (int u : neighbours[t])
+      if (u < nt && label[u] != label[t]) {
+        dist[t] = 0;
+        frontier.push_back(t);
+        break;
+      }
+  for (int r = 1; r < rings && !frontier.empty(); ++r) {
+    std::vector<int> next;
+    for (int t : frontier)
+      for (int u : neighbours[t])
+        if (u < nt && dist[u] > r) dist[u] = r, next.push_back(u);
+    frontier.swap(next);
+  }
+  std::vector<char> core(nt);
+  for (int t = 0; t < nt; ++t) core[t] = dist[t] >= rings;
+  return core;
 }
 
 void Clustering::SetBasis(int k, const BasisMaterial& b) {

@@ -102,7 +102,9 @@ class Clustering {
   // Sample ids of usable texels in cluster k (all clusters when k < 0), train
   // or held-out; with well_seen_fits (final materials): of its texels with
   // min_samples or more training samples when those hold at least half of
-  // its training samples, else of all.
+  // its training samples, else of all; of those, the core's (CoreTexels,
+  // ReconstructOptions::core_fit_rings) when it holds half of their
+  // training samples.
   std::vector<int64_t> Ids(int k, bool heldout) const;
 
   // Sets basis k (k == K() appends one) and its predictions.
@@ -197,6 +199,10 @@ class Clustering {
   std::vector<BasisMaterial> basis_;
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
 };
+
+// Per texel: whether every surface neighbour up to `rings` rings out (8-
+// neighbours in the atlas, across seams) carries the texel's own label.
+std::vector<char> CoreTexels(const std::vector<std::vector<int>>& neighbours, const std::vector<int>& label, int rings);
 
 // Labels of texels without training samples (no training photo saw them)
 // from their neighbours: the majority label of the neighbours that have one,

@@ -27,6 +27,8 @@ void ReconstructOptions::Check() const {
   for (int r : weight_radii)
     if (r < 1 || r > 64) throw Error(Msg("reconstruct: weight radius must be in [1, 64], got ", r));
   if (refine_iterations < 0) throw Error("reconstruct: refine iterations must be >= 0");
+  if (core_fit_rings < 0 || core_fit_rings > 8)
+    throw Error(Msg("reconstruct: core fit rings must be in [0, 8], got ", core_fit_rings));
   if (min_samples < 1) throw Error("reconstruct: min samples must be >= 1");
   if (min_fit_samples < 1) throw Error("reconstruct: min fit samples must be >= 1");
   if (candidate_models.empty() && force_model.empty()) throw Error("reconstruct: no candidate models");
