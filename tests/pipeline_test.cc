@@ -13,12 +13,29 @@
 #include "pipeline/merge_stage.h"
 #include "pipeline/mirror_stage.h"
 #include "pipeline/normal_stage.h"
+#include "pipeline/reconstruction.h"
 #include "pipeline/report_html.h"
 
 namespace svbrdf {
 namespace {
 
 namespace fs = std::filesystem;
+
+// An option out of range is named before any work: not after the capture
+// was read and gathered (here the capture does not even exist).
+TEST(Reconstruction, OptionsAreCheckedBeforeTheCaptureIsRead) {
+  ReconstructionJob job;
+  job.scene_path = "/nonexistent/scene.json";
+  job.out_dir = (fs::temp_directory_path() / "svbrdf_options_checked_first").string();
+  job.estimate.core_fit_rings = 9;
+  try {
+    RunReconstruction(job);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("core fit rings must be in [0, 8], got 9"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(job.out_dir));
+}
 
 TEST(ReportHtml, HasMapsTwinTimingsModelsAndWarnings) {
   const std::string dir = ::testing::TempDir() + "/report_html_test";

@@ -127,6 +127,9 @@ DisplayScale DisplayScaleOf(const Scene& scene) {
 
 nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   StageTimer timer;
+  // Options before any work: a value out of range is named at once, not
+  // after the gathering.
+  job.estimate.Check();
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
     throw Error(Msg("reconstruct: --time-budget must be >= 0 seconds, got ", job.time_budget_s));
   if (!(job.time_spent_before_s >= 0 && std::isfinite(job.time_spent_before_s)))
