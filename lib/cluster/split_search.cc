@@ -207,12 +207,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       Refine(cl, o.refine_iterations, true);
       RechooseHalfModels(cl, k, knew, o.refine_iterations, nullptr);
       h = cl.HeldoutRmse(false, &texel_sse);
-      // Paired tests over texels: on the squared errors (dominated by the
-      // texels with the largest errors) or on the bounded per-texel changes
-      // (how consistently texels improve; with few photos the first is noisy).
       drop = TrimmedDrop(states[best_state].texel_sse, texel_sse);
-      z = std::max(PairedZ(states[best_state].texel_sse, texel_sse),
-                   BoundedPairedZ(states[best_state].texel_sse, texel_sse));
+      z = ImprovementZ(states[best_state].texel_sse, texel_sse);
       own_test = drop >= o.min_improvement && z >= o.min_z;
       if (evaluated.count(PartitionKey(cl.assign())) || !own_test) control_unneeded = true;
     };
@@ -303,7 +299,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       auto control_test = [&](bool refined, double* agreement, double* gain, double* zc) {
         *agreement = refined ? PartitionAgreement(candidate.assign, control_assign, cl.usable()) : 0.0;
         *gain = TrimmedDrop(control_sse, candidate_sse);
-        *zc = std::max(PairedZ(control_sse, candidate_sse), BoundedPairedZ(control_sse, candidate_sse));
+        *zc = ImprovementZ(control_sse, candidate_sse);
         return *agreement >= kControlSamePartition ||
                (*gain >= std::min(o.min_improvement, o.control_min_share * drop) && *zc >= o.min_z);
       };

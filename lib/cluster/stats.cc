@@ -72,6 +72,10 @@ double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b
   return PairedZ(d, zero);
 }
 
+double ImprovementZ(const std::vector<double>& a, const std::vector<double>& b) {
+  return std::max(PairedZ(a, b), BoundedPairedZ(a, b));
+}
+
 double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim) {
   const size_t n = std::min(a.size(), b.size()), cut = size_t(trim * double(n));
   std::vector<char> drop(n, 0);

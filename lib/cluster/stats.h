@@ -54,6 +54,12 @@ double PairedZ(const std::vector<double>& a, const std::vector<double>& b);
 // by the few texels with the largest errors (highlights).
 double BoundedPairedZ(const std::vector<double>& a, const std::vector<double>& b);
 
+// The larger of the two: paired tests over texels on the squared errors
+// (dominated by the texels with the largest errors) or on the bounded
+// per-texel changes (how consistently texels improve; with few photos the
+// first is noisy). The z of every held-out "b improves on a" test here.
+double ImprovementZ(const std::vector<double>& a, const std::vector<double>& b);
+
 // Relative drop 1 - sum(b) / sum(a) of paired per-texel errors, without the
 // texels among the largest `trim` share of either (the union): one texel
 // whose held-out samples a new glossy material mispredicts (a misassigned

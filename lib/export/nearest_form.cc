@@ -5,6 +5,7 @@
 
 #include "brdf/fresnel.h"
 #include "brdf/microfacet.h"
+#include "brdf/plastic.h"
 #include "brdf/rough_coat.h"
 #include "core/error.h"
 
@@ -247,9 +248,11 @@ Rgb NearestForm::Eval(const Vec3& wi, const Vec3& wo) const {
   } else if (lobe == Lobe::kRoughPlastic) {
     f += plastic.Eval(base, /*nonlinear=*/true, wi, wo);
   } else if (lobe == Lobe::kPlastic) {  // Mitsuba's plastic.cpp, the delta reflection left out
-    const double through = (1 - brdf::FresnelDielectric(wi.z(), ior)) * (1 - brdf::FresnelDielectric(wo.z(), ior)) /
-                           (kPi * ior * ior);
-    for (int c = 0; c < 3; ++c) f[c] += base[c] * through / (1 - base[c] * smooth_internal_reflectance);
+    // Our model with Mitsuba's F_int (its fit) in place of the exact one.
+    brdf::Plastic<double> coat{base, ior};
+    coat.prepared_f_int = smooth_internal_reflectance;
+    coat.prepared = true;
+    f += coat.f(wi, wo);
   }
   return f;
 }

@@ -184,7 +184,7 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
     const double n = 3.0 * double(held_ids.size());
     const double rmse_fit = std::sqrt(sum_fit / n), rmse_mirror = std::sqrt(sum_mirror / n);
     const double margin = eo.parsimony * SignalRms(s, held_ids);
-    const double z = std::max(PairedZ(sse_fit, sse_mirror), BoundedPairedZ(sse_fit, sse_mirror));
+    const double z = ImprovementZ(sse_fit, sse_mirror);
     const bool take = rmse_fit - rmse_mirror > margin && z >= eo.model_min_z;
     rep.lines.push_back(Msg("m", k, " (", est->basis[k].spec.Label(), ", ", texels.size(), " texels): held-out RMSE ",
                             rmse_fit, " as fitted, ", rmse_mirror, " as a mirror of F0 (", f0[0], ", ", f0[1], ", ",
