@@ -163,8 +163,10 @@ def write_markdown(doc, path):
          "`evaluate` (sRGB PSNR inside the masks)." % (doc["scene_count"], doc["frozen"], doc["sampler_sha256"][:12],
                                                        doc["split_rule"], doc["relight_options"]),
          "", "**Ceiling**: %s." % doc["ceiling"], ""]
-    for half in ("dev", "test"):
+    for half in ("dev", "test", "extra"):
         h = doc["halves"].get(half)
+        if half == "extra" and not h:
+            continue
         if not h:
             L += ["## %s half" % half, "", "Not measured.", ""]
             continue
@@ -216,7 +218,7 @@ def write_chart(doc, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    halves = [h for h in ("dev", "test") if doc["halves"].get(h)]
+    halves = [h for h in ("dev", "test", "extra") if doc["halves"].get(h)]
     fig, axes = plt.subplots(len(halves), 2, figsize=(12, 3.8 * len(halves)), squeeze=False,
                              gridspec_kw={"width_ratios": [2, 1]})
     for row, half in enumerate(halves):
@@ -256,7 +258,10 @@ def main():
         i = argv.index("--")
         argv, extra = argv[:i], argv[i + 1:]
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--half", choices=["dev", "test", "all"], required=True)
+    ap.add_argument("--half", choices=["dev", "test", "all", "extra"], required=True,
+                    help="extra: seeds beyond the frozen 24 (--extra-seeds), drawn by the same sampler; more "
+                         "development data, never a replacement for the test half")
+    ap.add_argument("--extra-seeds", default="25-36", help="with --half extra: seed range A-B (A > 24)")
     ap.add_argument("--cache", default="/work/scratch/gen", help="rendered captures, CACHE/<seed>/")
     ap.add_argument("--runs", default="/work/scratch/gen_runs", help="per-scene outputs, RUNS/<seed>/")
     ap.add_argument("--threads", type=int, default=2)
@@ -280,6 +285,12 @@ def main():
 
     manifest = load_manifest(a.manifest, a.allow_resample)
     halves = ["dev", "test"] if a.half == "all" else [a.half]
+    if a.half == "extra":
+        lo, hi = (int(x) for x in a.extra_seeds.split("-"))
+        if lo <= max(s["seed"] for s in manifest["scenes"]) or hi < lo:
+            sys.exit("bench_generalization: --extra-seeds %s must lie above the frozen seeds" % a.extra_seeds)
+        manifest["scenes"] += [{"seed": sd, "split": "extra", "params": mitsuba_scenes.draw_scene(sd)}
+                               for sd in range(lo, hi + 1)]
     os.makedirs(a.runs, exist_ok=True)
     binary, sha = bench.snapshot_binary(a.binary, a.runs)
     json_path = a.out + ".json"

@@ -23,7 +23,7 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
       "Example: svbrdf reconstruct capture/scene.json --out material --max-clusters 6");
   c->add_option("scene", job->scene_path, "capture scene.json")->required();
   c->add_option("--out", job->out_dir, "output material folder")->required();
-  c->add_option("--texture-size", job->gather.texture_size, "atlas resolution (square)");
+  c->add_option("--texture-size", job->gather.texture_size, "atlas resolution (square) of meshes with texture coordinates; 0: automatic, a texel of about --texel-footprint pixel footprints");
   c->add_option("--model", job->estimate.force_model, "force one model for every basis material (e.g. lafortune-2)");
   c->add_option("--models", *candidates, "comma-separated candidate models for model selection");
   c->add_option("--max-clusters", job->estimate.max_clusters, "upper bound on basis materials");

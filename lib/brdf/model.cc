@@ -20,6 +20,7 @@ const char* FamilyName(Family f) {
     case Family::kGltf: return "gltf";
     case Family::kPlastic: return "plastic";
     case Family::kMirror: return "mirror";
+    case Family::kPrincipled: return "principled";
   }
   return "?";
 }
@@ -76,6 +77,8 @@ std::string ModelSpec::Label() const {
     if (fresnel == FresnelMode::kF82Tint) label += "-f82";
   } else if (family == Family::kCoated) {
     label += Msg("-", DistributionName(distribution));
+  } else if (family == Family::kPrincipled && clearcoat) {
+    label += "-clearcoat";
   }
   return label;
 }
@@ -155,6 +158,14 @@ std::vector<ModelSpec> AllModelSpecs() {
   gltf.shadowing = Shadowing::kSmith;
   gltf.fresnel = FresnelMode::kSchlick;
   all.push_back(gltf);
+  for (bool coat : {false, true}) {
+    ModelSpec s;
+    s.family = Family::kPrincipled;
+    s.distribution = Distribution::kGGX;
+    s.shadowing = Shadowing::kSmith;
+    s.clearcoat = coat;
+    all.push_back(s);
+  }
   return all;
 }
 

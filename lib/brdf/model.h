@@ -26,6 +26,7 @@ enum class Family {
   kGltf,          // glTF 2.0 metallic-roughness: baseColor, metallic, roughness (gltf_pbr.h)
   kPlastic,       // smooth coat: Lambertian base seen through a flat dielectric coat, delta reflection (plastic.h)
   kMirror,        // smooth conductor: no BRDF part, a delta reflection of Schlick reflectance F0 (mirror.h)
+  kPrincipled,    // Burley's principled BRDF as Mitsuba 3 evaluates it: base, metallic, specular, roughness (principled.h)
 };
 
 enum class Distribution { kBeckmann, kBlinnGaussian, kGGX };
@@ -52,6 +53,7 @@ struct ModelSpec {
   Distribution distribution = Distribution::kBeckmann;  // Cook-Torrance, conductor, coated
   Shadowing shadowing = Shadowing::kVCavity;            // Cook-Torrance only (conductor, coated: Smith)
   FresnelMode fresnel = FresnelMode::kExact;            // Cook-Torrance, conductor
+  bool clearcoat = false;        // Principled only: the second, clear specular lobe (clearcoat, clearcoat_gloss)
 
   // Stable name used in material.json "model", e.g. "lambert", "lafortune",
   // "cook_torrance". Options (lobes, distribution, ...) are separate fields.

@@ -25,6 +25,7 @@
 #include "brdf/model.h"
 #include "brdf/oren_nayar.h"
 #include "brdf/phong.h"
+#include "brdf/principled.h"
 
 namespace svbrdf::brdf {
 
@@ -119,6 +120,21 @@ template <class V, class T> void VisitParams(V& v, const ModelSpec&, GltfPbr<T>&
   v.Scalar(m.roughness, "roughness", "glTF perceptual roughness (GGX alpha = roughness^2)", 0.05, 1.0, 0.5);
 }
 
+// Mitsuba's principled parameters under their Mitsuba names (export/mitsuba.cc writes them as they are).
+template <class V, class T> void VisitParams(V& v, const ModelSpec& spec, Principled<T>& m) {
+  v.Rgb(m.base, "base_color", "base color", 0.0, 1.0, 0.5);
+  v.Scalar(m.metallic, "metallic", "metallic (0 dielectric, 1 metal)", 0.0, 1.0, 0.0);
+  v.Scalar(m.specular, "specular", "dielectric reflectance knob, eta = 2 / (1 - sqrt(0.08 specular)) - 1", 0.0, 1.0,
+           0.5);
+  v.Scalar(m.roughness, "roughness", "roughness r (GGX alpha = r^2; scales the diffuse retro-reflection)", 0.03, 1.0,
+           0.5);
+  if (spec.clearcoat) {
+    v.Scalar(m.clearcoat, "clearcoat", "weight of the clear coat's lobe", 0.0, 1.0, 0.5);
+    v.Scalar(m.clearcoat_gloss, "clearcoat_gloss", "coat gloss (GTR1 alpha from 0.1 at 0 to 0.001 at 1)", 0.0, 1.0,
+             0.8);
+  }
+}
+
 // Calls fn(model) with a default-initialised value class of the spec's family
 // and options; the caller fills the parameters with VisitParams.
 template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
@@ -158,6 +174,7 @@ template <class T, class Fn> void WithModel(const ModelSpec& spec, Fn&& fn) {
     case Family::kGltf: { GltfPbr<T> m; fn(m); return; }
     case Family::kPlastic: { Plastic<T> m; fn(m); return; }
     case Family::kMirror: { Mirror<T> m; fn(m); return; }
+    case Family::kPrincipled: { Principled<T> m; fn(m); return; }
   }
 }
 

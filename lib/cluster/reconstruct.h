@@ -68,7 +68,7 @@ struct ReconstructOptions {
   std::vector<std::string> candidate_models = {"lambert", "oren_nayar", "lafortune-1", "lafortune-2",
                                                "cook_torrance-beckmann", "cook_torrance-ggx", "conductor-ggx-schlick",
                                                "conductor-ggx", "conductor-beckmann", "coated-ggx", "coated-beckmann",
-                                               "plastic", "gltf"};
+                                               "plastic", "gltf", "principled", "principled-clearcoat"};
   std::string force_model;
   std::string cluster_model = "lafortune-1";  // model used while splitting (with split_models)
   // Beside `cluster_model`, models fitted to every cluster while splitting

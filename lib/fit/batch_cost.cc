@@ -30,10 +30,10 @@ namespace {
 // Parameter counts that get a compile-time-sized cost function: those of the
 // lib/brdf labels (lambert 3, oren_nayar 4, phong/blinn_phong/cosine_lobe 7,
 // cook_torrance 8, lafortune-L 3+6L, lafortune-L-aniso 3+7L,
-// conductor 4 (schlick) or 7 (exact, f82), coated 5). NumParams() is a
+// conductor 4 (schlick) or 7 (exact, f82), coated 5, principled 6 or 8). NumParams() is a
 // runtime value, so the list cannot be derived here; fit_test checks that every
 // label lands in it, and an unlisted count still works via the dynamic path.
-using FixedSizes = std::integer_sequence<int, 3, 4, 5, 7, 8, 9, 10, 15, 17, 21, 24>;
+using FixedSizes = std::integer_sequence<int, 3, 4, 5, 6, 7, 8, 9, 10, 15, 17, 21, 24>;
 
 // Residual r robustified to r sqrt(rho(r^2) / r^2) with the Cauchy loss
 // rho(s) = c^2 log(1 + s / c^2) (as ceres::CauchyLoss), so that its square is

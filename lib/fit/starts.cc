@@ -57,6 +57,7 @@ std::vector<int> ShapeParams(const ModelSpec& spec, const std::vector<ParamInfo>
       case Family::kConductor:
       case Family::kCoated:
       case Family::kGltf:
+      case Family::kPrincipled:
         if (n == "roughness" || n == "m" || n == "alpha") out.push_back(i);
         break;
       default:
@@ -166,7 +167,7 @@ std::vector<std::vector<double>> ShapeStarts(const ModelSpec& spec, const std::v
   const std::vector<double>& values = spec.family == Family::kConductor ? kMetalRoughness
                                       : spec.family == Family::kCookTorrance || spec.family == Family::kCoated
                                           ? kRoughness
-                                      : spec.family == Family::kGltf ? kPerceptualRoughness
+                                      : spec.family == Family::kGltf || spec.family == Family::kPrincipled ? kPerceptualRoughness
                                                                      : kExponents;
   for (size_t s = 0; s < values.size(); ++s) {
     std::vector<double> p = base;

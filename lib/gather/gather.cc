@@ -14,7 +14,8 @@
 namespace svbrdf {
 
 void GatherOptions::Check() const {
-  if (texture_size < 4 || texture_size > 8192) throw Error(Msg("gather: texture size must be in [4, 8192], got ", texture_size));
+  if (texture_size != 0 && (texture_size < 4 || texture_size > 8192))
+    throw Error(Msg("gather: texture size must be 0 (automatic) or in [4, 8192], got ", texture_size));
   if (!(min_cos >= 0 && min_cos < 1)) throw Error(Msg("gather: min_cos must be in [0, 1), got ", min_cos));
   if (!(noise_floor >= 0 && std::isfinite(noise_floor))) throw Error(Msg("gather: noise floor must be finite and >= 0, got ", noise_floor));
   if (!(min_signal_fraction >= 0 && min_signal_fraction <= 1))
@@ -228,6 +229,30 @@ double MedianPixelFootprint(const Scene& scene, const Mesh& mesh, double min_cos
   return footprints[footprints.size() / 2];
 }
 
+int UvTextureSize(const Mesh& mesh, double texel_size, int max_size) {
+  std::vector<std::pair<double, double>> ratio;  // (sqrt(surface / UV area), surface area)
+  double total = 0;
+  for (size_t f = 0; f < mesh.faces.size() && f < mesh.face_uvs.size(); ++f) {
+    const Vec3i& v = mesh.faces[f];
+    const Vec3i& t = mesh.face_uvs[f];
+    const double a3 = 0.5 * (mesh.positions[v[1]] - mesh.positions[v[0]]).cross(mesh.positions[v[2]] - mesh.positions[v[0]]).norm();
+    const Vec2 e1 = mesh.texcoords[t[1]] - mesh.texcoords[t[0]], e2 = mesh.texcoords[t[2]] - mesh.texcoords[t[0]];
+    const double auv = 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+    if (!(auv > 0) || !(a3 > 0)) continue;
+    ratio.emplace_back(std::sqrt(a3 / auv), a3);
+    total += a3;
+  }
+  if (ratio.empty() || !(texel_size > 0)) return 0;
+  std::sort(ratio.begin(), ratio.end());
+  double acc = 0, median = ratio.back().first;
+  for (const auto& [r, a] : ratio)
+    if ((acc += a) >= 0.5 * total) {
+      median = r;
+      break;
+    }
+  return int(std::clamp(std::lround(median / texel_size), 16L, long(std::max(16, max_size))));
+}
+
 GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   options.Check();
   // Texel gathering follows rays from each camera's centre; an orthographic
@@ -240,6 +265,14 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   out.mesh = LoadMesh(scene.Resolve(scene.mesh));
   out.mesh.Validate(scene.Resolve(scene.mesh));
   int size = options.texture_size;
+  if (out.mesh.HasUVs() && size == 0) {
+    const double footprint = MedianPixelFootprint(scene, out.mesh, options.min_cos);
+    if (!(footprint > 0)) throw Error(Msg(scene.mesh, ": no vertex of the mesh is seen by any photo"));
+    size = UvTextureSize(out.mesh, options.texel_footprint * footprint, options.max_atlas_size);
+    if (size == 0) throw Error(Msg(scene.mesh, ": the texture coordinates span no area"));
+    std::fprintf(stderr, "  atlas: %dx%d texels from the mesh's texture coordinates (texel ~%.3g pixel footprints of %.3g)\n",
+                 size, size, options.texel_footprint, footprint);
+  }
   if (!out.mesh.HasUVs()) {
     // A chart atlas at about one texel per pixel footprint: finer texels
     // would hold too few samples each, coarser ones blur the material.

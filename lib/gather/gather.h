@@ -25,7 +25,14 @@
 namespace svbrdf {
 
 struct GatherOptions {
-  int texture_size = 128;       // atlas resolution (square) of meshes with texture coordinates
+  // Atlas resolution (square) of meshes with texture coordinates; 0: chosen
+  // like the chart atlas's texel (UvTextureSize), so that a texel of the
+  // median surface element covers `texel_footprint` pixel footprints. 128
+  // blurs a UV sphere's material borders at 320x240 over ~4 pixels, yet 0
+  // is not the default: on seven randomized UV captures it won on the
+  // sharp and noisy borders and lost as much where the finer atlas sent the
+  // split search down another path (docs/measurements.md, "UV atlases").
+  int texture_size = 128;
   // Meshes without texture coordinates get a chart atlas (atlas/charts.h)
   // whose texel is `texel_footprint` pixel footprints at the median view
   // (1 = one texel per pixel), at most `max_atlas_size` texels a side.
@@ -181,5 +188,10 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options);
 // head-on (distance / focal length in pixels), for vertices that face the
 // camera and project into its image; 0 when no vertex is seen.
 double MedianPixelFootprint(const Scene& scene, const Mesh& mesh, double min_cos);
+
+// The square atlas size at which a texel of the mesh's median surface
+// element (area-weighted median over faces of sqrt(surface area / UV area))
+// is `texel_size` long, clamped to [16, max_size]; 0 when no face has UV area.
+int UvTextureSize(const Mesh& mesh, double texel_size, int max_size);
 
 }  // namespace svbrdf

@@ -111,7 +111,8 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
   b.name = Msg("m", i);
   b.spec = ModelSpec::FromLabel(label.empty() ? e.label : label);
   b.params = b.spec.InitialParams();
-  if (b.spec.family != Family::kConductor && b.spec.family != Family::kGltf && b.spec.family != Family::kMirror)
+  if (b.spec.family != Family::kConductor && b.spec.family != Family::kGltf && b.spec.family != Family::kMirror &&
+      b.spec.family != Family::kPrincipled)
     SetRgb(&b, "rd", e.diffuse);
   switch (b.spec.family) {
     case Family::kLambert:
@@ -158,6 +159,7 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
       SetRgb(&b, "f0", Rgb(0.95, 0.65, 0.33));
       break;
     case Family::kGltf:
+    case Family::kPrincipled:
       SetRgb(&b, "base_color", e.diffuse);
       SetParam(&b, "roughness", e.shape > 0 && e.shape < 1 ? e.shape : 0.4);
       break;

@@ -375,6 +375,60 @@ TEST(Gather, ChartAtlasBorderTexelsTakeNoSamples) {
   fs::remove_all(dir);
 }
 
+// A square of side 2 whose UVs span [0, 1]^2 (surface / UV area 4): a
+// texel 0.01 long needs 200 texels a side; the size is clamped below and
+// above; UVs without area give 0.
+TEST(Gather, UvTextureSizeFollowsTheTexelLength) {
+  Mesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 2, 0), Vec3(0, 2, 0)};
+  m.faces = {Vec3i(0, 1, 2), Vec3i(0, 2, 3)};
+  m.texcoords = {Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)};
+  m.face_uvs = m.faces;
+  EXPECT_EQ(UvTextureSize(m, 0.01, 1024), 200);
+  EXPECT_EQ(UvTextureSize(m, 0.01, 128), 128);
+  EXPECT_EQ(UvTextureSize(m, 1.0, 1024), 16);
+  // The area-weighted median: a second square with a 4x finer UV scale but
+  // a tenth of the surface does not move it.
+  const int n = int(m.positions.size());
+  for (const Vec3& p : {Vec3(5, 0, 0), Vec3(5.2, 0, 0), Vec3(5.2, 0.2, 0), Vec3(5, 0.2, 0)}) m.positions.push_back(p);
+  m.faces.push_back(Vec3i(n, n + 1, n + 2));
+  m.faces.push_back(Vec3i(n, n + 2, n + 3));
+  m.face_uvs = {Vec3i(0, 1, 2), Vec3i(0, 2, 3), Vec3i(0, 1, 2), Vec3i(0, 2, 3)};
+  EXPECT_EQ(UvTextureSize(m, 0.01, 1024), 200);
+  m.texcoords = {Vec2(0, 0), Vec2(0, 0), Vec2(0, 0), Vec2(0, 0)};
+  EXPECT_EQ(UvTextureSize(m, 0.01, 1024), 0);
+}
+
+// With texture size 0 a mesh with UVs gets the atlas whose texel covers
+// texel_footprint pixel footprints (not a fixed size), and an explicit size
+// is kept.
+TEST(Gather, UvMeshAtlasSizeFollowsThePixelFootprint) {
+  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_auto_" + std::to_string(getpid()))).string();
+  SynthOptions o = SynthPreset("tiny");
+  o.num_images = 4;
+  o.num_heldout = 0;
+  Synthesize(o, dir);
+  const Scene scene = LoadScene(dir + "/scene.json");
+  GatherOptions go;
+  go.progress = false;
+  go.footprint_rays = 0;
+  go.texture_size = 0;
+  const GatherResult g = Gather(scene, go);
+  ASSERT_FALSE(g.made_uvs);
+  const Mesh mesh = LoadMesh(scene.Resolve(scene.mesh));
+  const int expected = UvTextureSize(mesh, go.texel_footprint * MedianPixelFootprint(scene, mesh, go.min_cos),
+                                     go.max_atlas_size);
+  EXPECT_GT(expected, 16);
+  EXPECT_EQ(g.atlas.width, expected);
+  go.texel_footprint = 1;  // finer texels: a larger atlas
+  EXPECT_GT(Gather(scene, go).atlas.width, expected);
+  go.texture_size = 24;
+  EXPECT_EQ(Gather(scene, go).atlas.width, 24);
+  go.texture_size = 2;
+  EXPECT_THROW(Gather(scene, go), Error);
+  fs::remove_all(dir);
+}
+
 TEST(Gather, BadCapturesFailClearly) {
   const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_bad_" + std::to_string(getpid()))).string();
   SynthOptions o = SynthPreset("tiny");

@@ -11,6 +11,7 @@
 
 #include "atlas/atlas.h"
 #include "brdf/fresnel.h"
+#include "brdf/principled.h"
 #include "core/error.h"
 #include "evaluate/metrics.h"
 #include "heldout.h"
@@ -49,6 +50,10 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
     if (b.spec.family == Family::kGltf) {
       const double m = GetParam(b, "metallic");
       f0[c] = 0.04 * (1 - m) + m * GetParam(b, std::string("base_color") + ch[c]);
+    } else if (b.spec.family == Family::kPrincipled) {  // principled.h at normal incidence
+      const double m = GetParam(b, "metallic");
+      const double eta = brdf::PrincipledEta(GetParam(b, "specular"));
+      f0[c] = brdf::FresnelDielectric(1.0, eta) * (1 - m) + m * GetParam(b, std::string("base_color") + ch[c]);
     } else {
       f0[c] = HasParam(b, "f0_r") ? GetParam(b, std::string("f0") + ch[c])
                                   : brdf::ConductorF0(GetParam(b, std::string("eta") + ch[c]),
@@ -58,10 +63,12 @@ Rgb ConductorF0Of(const BasisMaterial& b) {
   return f0;
 }
 
-// A metal: a conductor, or a metallic-roughness material that is (nearly)
-// all metal, whose lobe is then a Schlick conductor's with no diffuse.
+// A metal: a conductor, or a metallic-roughness or principled material that
+// is (nearly) all metal, whose lobe is then a Schlick conductor's with no
+// diffuse.
 bool IsMetal(const BasisMaterial& b) {
-  return b.spec.family == Family::kConductor || (b.spec.family == Family::kGltf && GetParam(b, "metallic") >= 0.95);
+  return b.spec.family == Family::kConductor ||
+         ((b.spec.family == Family::kGltf || b.spec.family == Family::kPrincipled) && GetParam(b, "metallic") >= 0.95);
 }
 
 // mixed_tiny: held-out PSNR measured 36.98 dB (MixedMaterialsRightCountAndMetal;
