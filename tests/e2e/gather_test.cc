@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include "core/error.h"
 #include "gather/gather.h"
@@ -47,6 +48,16 @@ Rgb TruthFootprintPrediction(const GatherResult& g, const MaterialShader& shader
     sum += fp[2] * ratio * shader.Eval(uv, tilted, f.ToWorld(wi), f.ToWorld(wo));
   }
   return sum * g.samples.geom[i];
+}
+
+// A tiny synthetic capture (SynthPreset("tiny") changed by `adjust`) in a
+// fresh temporary folder `name`<pid>; returns the folder.
+std::string TinyCapture(const std::string& name, const std::function<void(SynthOptions&)>& adjust) {
+  const std::string dir = (fs::temp_directory_path() / (name + std::to_string(getpid()))).string();
+  SynthOptions o = SynthPreset("tiny");
+  adjust(o);
+  Synthesize(o, dir);
+  return dir;
 }
 
 TEST(Gather, SamplesMatchGroundTruthBrdf) {
@@ -338,12 +349,11 @@ TEST(Gather, FootprintProbeFindsShadowBoundariesAndEdges) {
 // (dilation rings, texels claimed by sub-texel triangles) whose measured
 // point is clamped more than half a texel away take no samples.
 TEST(Gather, ChartAtlasBorderTexelsTakeNoSamples) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_noUV_" + std::to_string(getpid()))).string();
-  SynthOptions o = SynthPreset("tiny");
-  o.mesh_uvs = false;
-  o.num_images = 6;
-  o.num_heldout = 0;
-  Synthesize(o, dir);
+  const std::string dir = TinyCapture("svbrdf_gather_noUV_", [](SynthOptions& o) {
+    o.mesh_uvs = false;
+    o.num_images = 6;
+    o.num_heldout = 0;
+  });
   const Scene scene = LoadScene(dir + "/scene.json");
   GatherOptions go;
   go.progress = false;
@@ -403,11 +413,10 @@ TEST(Gather, UvTextureSizeFollowsTheTexelLength) {
 // texel_footprint pixel footprints (not a fixed size), and an explicit size
 // is kept.
 TEST(Gather, UvMeshAtlasSizeFollowsThePixelFootprint) {
-  const std::string dir = (fs::temp_directory_path() / ("svbrdf_gather_auto_" + std::to_string(getpid()))).string();
-  SynthOptions o = SynthPreset("tiny");
-  o.num_images = 4;
-  o.num_heldout = 0;
-  Synthesize(o, dir);
+  const std::string dir = TinyCapture("svbrdf_gather_auto_", [](SynthOptions& o) {
+    o.num_images = 4;
+    o.num_heldout = 0;
+  });
   const Scene scene = LoadScene(dir + "/scene.json");
   GatherOptions go;
   go.progress = false;
