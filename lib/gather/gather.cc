@@ -265,21 +265,23 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   out.mesh = LoadMesh(scene.Resolve(scene.mesh));
   out.mesh.Validate(scene.Resolve(scene.mesh));
   int size = options.texture_size;
-  if (out.mesh.HasUVs() && size == 0) {
-    const double footprint = MedianPixelFootprint(scene, out.mesh, options.min_cos);
+  // A texel of about `texel_footprint` pixel footprints at the median view,
+  // for the chart atlas and for an automatic UV atlas size: finer texels
+  // would hold too few samples each, coarser ones blur the material.
+  double footprint = 0;
+  if (!out.mesh.HasUVs() || size == 0) {
+    footprint = MedianPixelFootprint(scene, out.mesh, options.min_cos);
     if (!(footprint > 0)) throw Error(Msg(scene.mesh, ": no vertex of the mesh is seen by any photo"));
+  }
+  if (out.mesh.HasUVs() && size == 0) {
     size = UvTextureSize(out.mesh, options.texel_footprint * footprint, options.max_atlas_size);
     if (size == 0) throw Error(Msg(scene.mesh, ": the texture coordinates span no area"));
     std::fprintf(stderr, "  atlas: %dx%d texels from the mesh's texture coordinates (texel ~%.3g pixel footprints of %.3g)\n",
                  size, size, options.texel_footprint, footprint);
   }
   if (!out.mesh.HasUVs()) {
-    // A chart atlas at about one texel per pixel footprint: finer texels
-    // would hold too few samples each, coarser ones blur the material.
     ChartAtlasOptions co;
     co.max_resolution = options.max_atlas_size;
-    const double footprint = MedianPixelFootprint(scene, out.mesh, options.min_cos);
-    if (!(footprint > 0)) throw Error(Msg(scene.mesh, ": no vertex of the mesh is seen by any photo"));
     co.texel_size = options.texel_footprint * footprint;
     ChartAtlasInfo info;
     out.mesh = MakeChartAtlasUVs(out.mesh, co, &info);

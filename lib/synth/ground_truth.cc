@@ -75,6 +75,12 @@ double GetParam(const BasisMaterial& b, const std::string& name) {
   throw Error(Msg("model ", b.spec.Label(), " has no parameter '", name, "'"));
 }
 
+bool HasParam(const BasisMaterial& b, const std::string& name) {
+  for (const ParamInfo& p : b.spec.Params())
+    if (p.name == name) return true;
+  return false;
+}
+
 namespace {
 
 void SetRgb(BasisMaterial* b, const std::string& prefix, const Rgb& v) {
@@ -111,9 +117,7 @@ BasisMaterial LibraryMaterial(int i, const std::string& label) {
   b.name = Msg("m", i);
   b.spec = ModelSpec::FromLabel(label.empty() ? e.label : label);
   b.params = b.spec.InitialParams();
-  if (b.spec.family != Family::kConductor && b.spec.family != Family::kGltf && b.spec.family != Family::kMirror &&
-      b.spec.family != Family::kPrincipled)
-    SetRgb(&b, "rd", e.diffuse);
+  if (HasParam(b, "rd_r")) SetRgb(&b, "rd", e.diffuse);  // metals and base-colour models have none
   switch (b.spec.family) {
     case Family::kLambert:
       break;

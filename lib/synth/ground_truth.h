@@ -47,6 +47,8 @@ void SetMetal(BasisMaterial* b, const std::string& metal);
 // outside the parameter's documented range.
 void ApplyParams(BasisMaterial* b, const MaterialParams& p);
 double GetParam(const BasisMaterial& b, const std::string& name);
+// Whether b's model has the named parameter.
+bool HasParam(const BasisMaterial& b, const std::string& name);
 
 // Builds the material folder contents for `mesh` (which must have UVs).
 Material MakeGroundTruth(const Mesh& mesh, const GroundTruthOptions& options);

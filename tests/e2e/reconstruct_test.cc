@@ -34,12 +34,6 @@ struct Outcome {
   std::vector<BasisMaterial> basis, truth;  // reconstructed basis materials, and the true one each overlaps most
 };
 
-bool HasParam(const BasisMaterial& b, const std::string& name) {
-  for (const ParamInfo& p : b.spec.Params())
-    if (p.name == name) return true;
-  return false;
-}
-
 // Normal-incidence reflectance per channel of a metal: a conductor's (any
 // Fresnel form), or a metallic-roughness material's lobe (Schlick with
 // F0 = 0.04 (1 - metallic) + metallic base, gltf_pbr.h).
