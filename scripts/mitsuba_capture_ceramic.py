@@ -5,7 +5,9 @@ off-white body: roughplastic, GGX, alpha 0.04, ior 1.5), polished copper
 (roughconductor, GGX, alpha 0.12, Johnson & Christy eta/k) and a blue matte
 paint (diffuse). Takes mitsuba_capture.py's arguments, plus
 `--ceiling-spp N`: render the held-out views again (independent seed, no
-added noise) into truth/ceiling/, the truth's own relight.
+added noise) into truth/ceiling/, the truth's own relight, and
+`--set metal`: mitsuba_capture.py's own materials (copper, red plastic,
+green paint) instead of the ceramic set, with the same ceiling.
 
 mitsuba_capture.py itself is left as it is: its source is part of the frozen
 generalization benchmark's sampler hash (scripts/mitsuba_scenes.py).
@@ -36,7 +38,15 @@ def main():
         i = sys.argv.index("--ceiling-spp")
         ceiling_spp = int(sys.argv[i + 1])
         del sys.argv[i:i + 2]
-    mc.fixed_materials = ceramic_materials
+    material_set = "ceramic"
+    if "--set" in sys.argv:
+        i = sys.argv.index("--set")
+        material_set = sys.argv[i + 1]
+        del sys.argv[i:i + 2]
+    if material_set not in ("ceramic", "metal"):
+        sys.exit("mitsuba_capture_ceramic.py: --set must be ceramic or metal, got %r" % material_set)
+    if material_set == "ceramic":
+        mc.fixed_materials = ceramic_materials
     mc.render_capture = functools.partial(mc.render_capture, ceiling_spp=ceiling_spp)
     return mc.main()
 
