@@ -32,6 +32,8 @@ struct GatherOptions {
   // is not the default: on seven randomized UV captures it won on the
   // sharp and noisy borders and lost as much where the finer atlas sent the
   // split search down another path (docs/measurements.md, "UV atlases").
+  // The mixing weights get the automatic atlas at the end of `reconstruct`
+  // (pipeline/fine_weights_stage.h), the search keeps this one.
   int texture_size = 128;
   // Meshes without texture coordinates get a chart atlas (atlas/charts.h)
   // whose texel is `texel_footprint` pixel footprints at the median view

@@ -16,6 +16,7 @@
 #include "io/material.h"
 #include "io/scene.h"
 #include "normals/normal_map.h"
+#include "pipeline/fine_weights_stage.h"
 #include "pipeline/interreflection_stage.h"
 #include "pipeline/normal_stage.h"
 #include "pipeline/photometric_stage.h"
@@ -285,6 +286,16 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
   }
 
+  FineWeightsReport fine_weights;
+  if (job.fine_weights && !g.made_uvs && job.gather.texture_size > 0) {
+    timer.Start("fine weights");
+    fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, eo, nr.kept,
+                                             interreflection.removed_share > 0 || mirrors.replaced > 0, &g, &est);
+    if (!fine_weights.line.empty()) std::fprintf(stderr, "  %s\n", fine_weights.line.c_str());
+    if (fine_weights.kept)
+      SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
+  }
+
   timer.Start("write material");
   Material material = ToMaterial(est, g.atlas, g.mesh);
   if (nr.kept) {
@@ -320,6 +331,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["candidate_models"] = eo.candidate_models;
   summary["merge"] = {{"merges", merge.merges}, {"tried", merge.lines}};
   summary["mirrors"] = {{"replaced", mirrors.replaced}, {"tried", mirrors.lines}};
+  summary["fine_weights"] = {{"tried", fine_weights.tried}, {"kept", fine_weights.kept},
+                             {"coarse_size", fine_weights.coarse_size}, {"fine_size", fine_weights.fine_size},
+                             {"heldout_rmse_coarse", fine_weights.heldout_rmse_coarse},
+                             {"heldout_rmse_fine", fine_weights.heldout_rmse_fine}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
   summary["weight_unit_sum"] = est.weight_unit_sum;

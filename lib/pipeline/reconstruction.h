@@ -33,6 +33,11 @@ struct ReconstructionJob {
   // renders the map in it. World is the format before "normal_map_space".
   NormalMapSpace normal_map_space = NormalMapSpace::kTangent;
   bool report = true;  // pictures and summary under out_dir/report
+  // Meshes with texture coordinates: the mixing weights solved again on the
+  // automatic atlas when it is finer than gather.texture_size, with the
+  // basis fixed, and kept by held-out error (fine_weights_stage.h); false:
+  // the maps stay at gather.texture_size.
+  bool fine_weights = true;
   // "mitsuba" or "gltf": only models that renderer reproduces exactly
   // (export/render_target.h), so that the export renders like the
   // reconstruction; "" or "any": every candidate.
