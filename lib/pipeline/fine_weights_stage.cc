@@ -11,6 +11,13 @@
 namespace svbrdf {
 namespace {
 
+// Finer weights are tried only where the coarse atlas's held-out error per
+// texel at region borders is this many times that inside the regions: where
+// the borders hold no more error than the interiors (a truth drawn at the
+// searched resolution), a finer atlas only spreads the samples thinner and
+// its weights score worse (docs/measurements.md, "Fine weights").
+constexpr double kMinBorderExcess = 2.0;
+
 // Largest-weight material of every texel of the estimate (-1: no weights).
 std::vector<int> Labels(const SvbrdfEstimate& est, int nt) {
   const int K = int(est.basis.size());
@@ -55,16 +62,41 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   if (g->made_uvs || normal_map || indirect_removed || est->basis.empty() || gather.texture_size == 0 ||
       o.SecondsLeft() <= 0)
     return r;
+  // The coarse atlas's held-out error per texel, at region borders (a
+  // neighbour of another label) against inside the regions: only where the
+  // borders carry the error can finer weights lower it.
+  const WeightModel m = ChosenWeightModel(o, *est);
+  const std::vector<int> coarse_label = Labels(*est, int(g->atlas.texels.size()));
+  Clustering coarse_cl = Fixed(*g, o, *est, coarse_label);
+  std::vector<double> per_texel;
+  r.heldout_rmse_coarse = coarse_cl.HeldoutRmse(m, &per_texel);
+  double border_sse = 0, inside_sse = 0;
+  int64_t border_n = 0, inside_n = 0;
+  for (size_t t = 0; t < per_texel.size() && t < coarse_cl.neighbours().size(); ++t) {
+    if (!(per_texel[t] > 0) || coarse_label[t] < 0) continue;
+    bool border = false;
+    for (int u : coarse_cl.neighbours()[t]) border = border || (coarse_label[size_t(u)] >= 0 && coarse_label[size_t(u)] != coarse_label[t]);
+    (border ? border_sse : inside_sse) += per_texel[t];
+    ++(border ? border_n : inside_n);
+  }
+  r.border_excess = border_n && inside_n && inside_sse > 0 ? (border_sse / border_n) / (inside_sse / inside_n) : 0.0;
+  if (r.border_excess < kMinBorderExcess) {
+    r.line = Msg("fine weights: not tried (held-out error per texel at region borders ", r.border_excess,
+                 " x that inside the regions)");
+    return r;
+  }
   GatherOptions fine_options = gather;
   fine_options.texture_size = 0;
   fine_options.progress = false;
+  // At most twice as fine a side: further, a texel's few samples pin its
+  // weights worse than the coarse texel's many, at a cost that grows with
+  // the square of the side.
+  fine_options.max_atlas_size = std::max(16, std::min(gather.max_atlas_size, 2 * g->atlas.width));
   GatherResult fine = Gather(scene, fine_options);
   r.fine_size = fine.atlas.width;
   if (fine.atlas.width <= g->atlas.width || fine.atlas.height <= g->atlas.height) return r;
   r.tried = true;
 
-  const WeightModel m = ChosenWeightModel(o, *est);
-  const std::vector<int> coarse_label = Labels(*est, int(g->atlas.texels.size()));
   // Fine texels take the label of the coarse texel their centre falls in.
   std::vector<int> fine_label(fine.atlas.texels.size(), -1);
   for (size_t t = 0; t < fine.atlas.texels.size(); ++t) {
@@ -74,13 +106,11 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
     const int c = g->atlas.At(cx, cy);
     if (c >= 0) fine_label[t] = coarse_label[size_t(c)];
   }
-  Clustering coarse_cl = Fixed(*g, o, *est, coarse_label);
   Clustering fine_cl = Fixed(fine, o, *est, fine_label);
-  r.heldout_rmse_coarse = coarse_cl.HeldoutRmse(m);
   r.heldout_rmse_fine = fine_cl.HeldoutRmse(m);
   r.kept = r.heldout_rmse_fine < r.heldout_rmse_coarse;
   r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width,
-               "^2, held-out RMSE ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
+               "^2 (border error ", r.border_excess, " x the interior's), held-out RMSE ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
                r.kept ? "kept" : "not kept");
   if (!r.kept) return r;
 

@@ -10,7 +10,8 @@
 // 320x240 and the default 128^2 blurs its borders over ~4 pixels). Here the
 // search keeps its atlas and only the weights get the automatic one
 // (GatherOptions::texture_size 0: a texel of `texel_footprint` pixel
-// footprints), kept when its held-out error (weights fitted on the training
+// footprints, at most twice the coarse side), kept when its held-out error
+// (weights fitted on the training
 // photos) is lower than the coarse atlas's under the same basis and weight
 // model.
 #pragma once
@@ -26,6 +27,9 @@ struct FineWeightsReport {
   bool tried = false, kept = false;
   int coarse_size = 0, fine_size = 0;
   double heldout_rmse_coarse = 0, heldout_rmse_fine = 0;
+  // Held-out error per texel at the coarse atlas's region borders over that
+  // inside the regions (the stage is tried above kMinBorderExcess).
+  double border_excess = 0;
   std::string line;  // for the log
 };
 
