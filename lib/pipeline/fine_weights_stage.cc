@@ -75,7 +75,8 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   for (size_t t = 0; t < per_texel.size() && t < coarse_cl.neighbours().size(); ++t) {
     if (!(per_texel[t] > 0) || coarse_label[t] < 0) continue;
     bool border = false;
-    for (int u : coarse_cl.neighbours()[t]) border = border || (coarse_label[size_t(u)] >= 0 && coarse_label[size_t(u)] != coarse_label[t]);
+    for (int u : coarse_cl.neighbours()[t])
+      border = border || (coarse_label[size_t(u)] >= 0 && coarse_label[size_t(u)] != coarse_label[t]);
     (border ? border_sse : inside_sse) += per_texel[t];
     ++(border ? border_n : inside_n);
   }
@@ -110,8 +111,8 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   r.heldout_rmse_fine = fine_cl.HeldoutRmse(m);
   r.kept = r.heldout_rmse_fine < r.heldout_rmse_coarse;
   r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width,
-               "^2 (border error ", r.border_excess, " x the interior's), held-out RMSE ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
-               r.kept ? "kept" : "not kept");
+               "^2 (border error ", r.border_excess, " x the interior's), held-out RMSE ", r.heldout_rmse_fine,
+               " against ", r.heldout_rmse_coarse, ": ", r.kept ? "kept" : "not kept");
   if (!r.kept) return r;
 
   SvbrdfEstimate out = *est;
