@@ -136,9 +136,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
               "where interreflection was traced: try dark basis materials as mirrors (smooth conductors), fitted to\n"
               "what their mirror direction sees, kept by held-out error (on by default, --no-mirrors: off)");
   c->add_flag("--fine-weights,!--no-fine-weights", job->fine_weights,
-              "meshes with texture coordinates: solve the mixing weights again on the automatic atlas (--texture-size 0)\n"
-              "when it is finer, the basis fixed; kept by held-out error (on by default, --no-fine-weights: the\n"
-              "maps stay at --texture-size)");
+              "meshes with texture coordinates: solve the mixing weights again on the automatic atlas (--texture-size 0,\n"
+              "at most twice the side) when it is finer and the region borders hold at least twice the held-out error\n"
+              "per texel of the regions' insides, the basis fixed; kept by held-out error (on by default,\n"
+              "--no-fine-weights: the maps stay at --texture-size)");
   c->add_option("--ps-normal-rounds", job->photometric_normal_rounds,
                 "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search\n"
                 "(where the Lambertian start misfits, --ps-search-misfit; 0 = the Lambertian start alone)");

@@ -334,7 +334,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   summary["fine_weights"] = {{"tried", fine_weights.tried}, {"kept", fine_weights.kept},
                              {"coarse_size", fine_weights.coarse_size}, {"fine_size", fine_weights.fine_size},
                              {"heldout_rmse_coarse", fine_weights.heldout_rmse_coarse},
-                             {"heldout_rmse_fine", fine_weights.heldout_rmse_fine}};
+                             {"heldout_rmse_fine", fine_weights.heldout_rmse_fine},
+                             {"border_excess", fine_weights.border_excess}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
   summary["weight_unit_sum"] = est.weight_unit_sum;
