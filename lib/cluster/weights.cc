@@ -355,23 +355,27 @@ WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const S
   return m;
 }
 
+std::vector<int> LargestWeightLabels(const std::vector<float>& weights, int K) {
+  if (K <= 0) return {};
+  const size_t stride = size_t(K) * 3;
+  std::vector<int> labels(weights.size() / stride, -1);
+  for (size_t t = 0; t < labels.size(); ++t) {
+    const float* w = &weights[t * stride];
+    float best_sum = 0;
+    for (int k = 0; k < K; ++k) {
+      const float sum = w[k * 3] + w[k * 3 + 1] + w[k * 3 + 2];
+      if (sum > best_sum) labels[t] = k, best_sum = sum;
+    }
+  }
+  return labels;
+}
+
 void SmoothInteriorWeights(const std::vector<std::vector<int>>& neighbours, int K, double alpha,
                            std::vector<float>* weights) {
   if (!(alpha > 0) || K <= 0) return;
   const size_t stride = size_t(K) * 3;
   const int nt = int(weights->size() / stride);
-  auto label = [&](int t) {
-    const float* w = &(*weights)[size_t(t) * stride];
-    int best = -1;
-    float best_sum = 0;
-    for (int k = 0; k < K; ++k) {
-      const float sum = w[k * 3] + w[k * 3 + 1] + w[k * 3 + 2];
-      if (sum > best_sum) best = k, best_sum = sum;
-    }
-    return best;  // -1: no weights (a texel without samples, not filled yet)
-  };
-  std::vector<int> labels(nt);
-  for (int t = 0; t < nt; ++t) labels[t] = label(t);
+  const std::vector<int> labels = LargestWeightLabels(*weights, K);
   std::vector<char> interior(nt, 0);
   for (int t = 0; t < nt && t < int(neighbours.size()); ++t) {
     if (labels[t] < 0 || neighbours[t].empty()) continue;

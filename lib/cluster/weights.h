@@ -20,6 +20,11 @@ std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o);
 // heldout_rmse and the scalar / per-channel errors at the chosen radius).
 WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const StageLog& log);
 
+// The material of largest weight (summed over the channels) of every texel
+// of `weights` (texel-major [t][k][c] for K materials); -1 where all are 0
+// (a texel without samples, not filled yet).
+std::vector<int> LargestWeightLabels(const std::vector<float>& weights, int K);
+
 // Smoothing inside material regions: a texel whose neighbours all share its
 // label (largest weight; every one with weights) moves towards the mean of
 // its n neighbours that are interior too (a blend-zone texel shares the

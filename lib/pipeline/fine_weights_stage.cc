@@ -18,20 +18,6 @@ namespace {
 // its weights score worse (docs/measurements.md, "Fine weights").
 constexpr double kMinBorderExcess = 2.0;
 
-// Largest-weight material of every texel of the estimate (-1: no weights).
-std::vector<int> Labels(const SvbrdfEstimate& est, int nt) {
-  const int K = int(est.basis.size());
-  std::vector<int> label(nt, -1);
-  for (int t = 0; t < nt; ++t) {
-    double best = 0;
-    for (int k = 0; k < K; ++k) {
-      const float* w = &est.weights[(size_t(t) * K + k) * 3];
-      if (w[0] + w[1] + w[2] > best) best = w[0] + w[1] + w[2], label[t] = k;
-    }
-  }
-  return label;
-}
-
 // The estimate's weight model (ChooseWeightModel's choice, from its record).
 WeightModel ChosenWeightModel(const ReconstructOptions& o, const SvbrdfEstimate& est) {
   for (WeightModel m : CandidateWeightModels(o))
@@ -66,7 +52,7 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   // neighbour of another label) against inside the regions: only where the
   // borders carry the error can finer weights lower it.
   const WeightModel m = ChosenWeightModel(o, *est);
-  const std::vector<int> coarse_label = Labels(*est, int(g->atlas.texels.size()));
+  const std::vector<int> coarse_label = LargestWeightLabels(est->weights, int(est->basis.size()));
   Clustering coarse_cl = Fixed(*g, o, *est, coarse_label);
   std::vector<double> per_texel;
   r.heldout_rmse_coarse = coarse_cl.HeldoutRmse(m, &per_texel);
