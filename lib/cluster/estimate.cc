@@ -134,6 +134,7 @@ SvbrdfEstimate FinishEstimateOnNewSamples(const SampleSet& samples, const Atlas&
   est.history = previous.history;
   est.states_revisited = previous.states_revisited;
   est.blend_splits = previous.blend_splits;
+  est.holes_relabelled = previous.holes_relabelled;
   est.search = previous.search;
   return FinishFrom(samples, atlas, o, previous.search.basis, previous.search.assign, "steps 3-6 from the split search",
                     previous.search.seconds, true, std::move(est));

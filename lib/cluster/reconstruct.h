@@ -94,6 +94,10 @@ struct ReconstructOptions {
   // error (large drop, control nearly as good) still fail.
   bool control_split = true;
   double control_min_share = 1.0 / 3.0;
+  // After the split search: specks of one cluster enclosed by another's
+  // region (region_holes.h), smaller than a material may be, relabelled to the
+  // enclosing cluster and both refitted; kept when the held-out error drops.
+  bool absorb_region_holes = true;
   // A split must leave regions, not a salt-and-pepper pattern: the share of
   // 8-neighbour pairs of the split cluster's texels whose labels differ,
   // relative to that share under random labels of the same proportions,
@@ -246,6 +250,7 @@ struct SvbrdfEstimate {
   std::vector<ClusterStep> history;
   int states_revisited = 0;       // splits that led back to an evaluated state (skipped, not re-evaluated)
   int blend_splits = 0;           // splits kept as failed ones: a half the other materials explain (split_search.cc)
+  long holes_relabelled = 0;      // texels of region holes the search's chosen state took into their region (region_holes.h)
   std::vector<ModelChoice> model_choices;
   double heldout_rmse = 0;        // final, with the chosen weights mode
   double heldout_rmse_scalar = 0, heldout_rmse_channel = 0;

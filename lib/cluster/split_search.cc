@@ -5,6 +5,7 @@
 #include <string>
 #include <unordered_set>
 
+#include "cluster/region_holes.h"
 #include "cluster/split.h"
 #include "cluster/stats.h"
 #include "core/error.h"
@@ -389,6 +390,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
   restore(states[chosen]);
   const uint64_t chosen_key = PartitionKey(cl.assign());
   for (auto& h : est.history) h.accepted = h.partition == chosen_key;
+  est.holes_relabelled = AbsorbRegionHoles(cl, &states[chosen].texel_sse, &states[chosen].heldout, &est, log);
   log(Msg("chosen: ", cl.K(), " basis materials"));
 }
 

@@ -352,6 +352,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
         {{"clusters", h.clusters}, {"train_rmse", h.train_rmse}, {"heldout_rmse", h.heldout_rmse}, {"accepted", h.accepted}});
   summary["states_revisited"] = est.states_revisited;
   summary["blend_splits"] = est.blend_splits;
+  summary["holes_relabelled"] = est.holes_relabelled;
   summary["pruned_materials"] = nlohmann::json::array();
   for (const auto& p : est.pruned)
     summary["pruned_materials"].push_back({{"model", p.label}, {"texels", p.texels}, {"heldout_drop", p.drop}, {"z", p.z}});
