@@ -33,9 +33,15 @@ struct NormalAlternationOptions {
   // normals with the clustering's materials; up to this many rounds while
   // the held-out error drops. 0 = off. Captures whose refinement lowers no
   // material's error (no bumps: the default and standard presets) never
-  // start it. 2 rounds: a second round still pays on default_bump, a third
-  // gains little for its CPU (bench_results/bump_default.md).
-  int bootstrap_rounds = 2;
+  // start it. When it was written, 2 rounds paid on default_bump
+  // (bench_results/bump_default.md). Off by default since the tilt fit
+  // solves the mixing weights with the tilts (lib/normals/joint_cost.h):
+  // there the first refinement is kept and the rounds follow it without a
+  // bootstrap, and on the Mitsuba benchmarks it started only on spheres
+  // whose mesh normals are exact (a sharp lobe's few texels gain with
+  // tilts) and was never kept, at 6-10 s a scene (docs/measurements.md).
+  // `--normal-bootstrap-rounds 2` starts it.
+  int bootstrap_rounds = 0;
   // The bootstrap starts only when some material's held-out squared error
   // drops by this share with the first refinement's normals: under bumps
   // the drop is far above it; on captures without a bump map (the
