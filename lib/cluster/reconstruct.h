@@ -94,9 +94,11 @@ struct ReconstructOptions {
   // error (large drop, control nearly as good) still fail.
   bool control_split = true;
   double control_min_share = 1.0 / 3.0;
-  // After the split search: specks of one cluster enclosed by another's
-  // region (region_holes.h), smaller than a material may be, relabelled to the
-  // enclosing cluster and both refitted; kept when the held-out error drops.
+  // After the split search: specks of other clusters inside one cluster's
+  // region (region_holes.h), smaller than a split may make a cluster,
+  // relabelled to it; that cluster chooses its split model again, the
+  // others are refitted; kept when the held-out error drops as a split's
+  // must (min_improvement, min_z).
   bool absorb_region_holes = true;
   // A split must leave regions, not a salt-and-pepper pattern: the share of
   // 8-neighbour pairs of the split cluster's texels whose labels differ,
