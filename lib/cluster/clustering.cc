@@ -121,6 +121,12 @@ void Clustering::SetBasis(int k, const BasisMaterial& b) {
   pred_[k] = Predict(b);
 }
 
+void Clustering::Restore(const std::vector<BasisMaterial>& basis, const std::vector<int>& assign) {
+  while (K() > int(basis.size())) RemoveBasis(K() - 1);
+  for (size_t j = 0; j < basis.size(); ++j) SetBasis(int(j), basis[j]);
+  assign_ = assign;
+}
+
 void Clustering::RemoveBasis(int k) {
   basis_.erase(basis_.begin() + k);
   pred_.erase(pred_.begin() + k);

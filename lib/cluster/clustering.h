@@ -110,6 +110,9 @@ class Clustering {
   // Sets basis k (k == K() appends one) and its predictions.
   void SetBasis(int k, const BasisMaterial& b);
   void RemoveBasis(int k);
+  // Back to an earlier state: these basis materials (predictions recomputed
+  // only for those that differ) and this assignment.
+  void Restore(const std::vector<BasisMaterial>& basis, const std::vector<int>& assign);
 
   // From model selection on (FinishEstimate): fits and validation on the well-seen texels (Ids).
   bool well_seen_fits_ = false;

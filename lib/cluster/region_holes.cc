@@ -48,14 +48,6 @@ std::vector<RegionHole> FindRegionHoles(const std::vector<std::vector<int>>& nei
   return holes;
 }
 
-namespace {
-// Regions whose holes are tried at most, the one with the most hole texels
-// first: each try costs a cluster fit per cluster it touches and a held-out
-// measure, and on the generalization benchmark's dev and extra halves no
-// second try was kept (docs/measurements.md).
-constexpr int kMaxRegions = 1;
-}  // namespace
-
 long AbsorbRegionHoles(Clustering& cl, std::vector<double>* texel_sse, double* heldout, SvbrdfEstimate* est,
                        const StageLog& log) {
   const ReconstructOptions& o = cl.options();
@@ -64,66 +56,56 @@ long AbsorbRegionHoles(Clustering& cl, std::vector<double>* texel_sse, double* h
   // Smaller than a split may make a cluster (min_cluster_fraction): no
   // material of its own by the search's rule.
   const long max_texels = std::max<long>(1, long(o.min_cluster_fraction * usable));
-  long moved = 0;
-  // Per current label: its region's holes were tried (labels shift when a
-  // cluster is emptied and removed). Holes are found again after every
-  // try: a kept one changes the regions.
-  std::vector<char> tried(cl.K(), 0);
-  for (int attempt = 0; attempt < kMaxRegions; ++attempt) {
-    std::map<int, std::vector<int>> by_region;
-    for (const RegionHole& h : FindRegionHoles(cl.neighbours(), cl.assign(), cl.usable(), max_texels)) {
-      if (tried[h.surround]) continue;
-      std::vector<int>& t = by_region[h.surround];
-      t.insert(t.end(), h.texels.begin(), h.texels.end());
-    }
-    if (by_region.empty()) break;
-    // The region with the most hole texels (the lowest label on ties).
-    auto most = by_region.begin();
-    for (auto it = by_region.begin(); it != by_region.end(); ++it)
-      if (it->second.size() > most->second.size()) most = it;
-    const int b = most->first;
-    const std::vector<int>& texels = most->second;
-    tried[b] = 1;
-    if (o.SecondsLeft() <= 0) {
-      est->cut_by_deadline.push_back("region holes");
-      break;
-    }
-    const std::vector<BasisMaterial> basis = cl.basis();
-    const std::vector<int> assign = cl.assign();
-    std::set<int> losers;
-    for (int t : texels) losers.insert(assign[t]), cl.assign()[t] = b;
-    cl.SetBasis(b, FitSplitModel(cl, b, &basis[b]));
-    std::vector<int> emptied;
-    for (int a : losers) {
-      if (std::find(cl.assign().begin(), cl.assign().end(), a) == cl.assign().end()) emptied.push_back(a);
-      else cl.SetBasis(a, MakeBasis(basis[a].spec, cl.Fit(basis[a].spec, a, basis[a].params, 0, -1, false), a));
-    }
-    for (auto it = emptied.rbegin(); it != emptied.rend(); ++it) cl.RemoveBasis(*it);
-    std::vector<double> sse;
-    const double h = cl.HeldoutRmse(false, &sse);
-    // A clear gain, as a split must bring (min_improvement, min_z), with
-    // and without the worst texels: in a noisy blend the specks are
-    // material, and relabelling them trades small gains for losses.
-    const double drop = TrimmedDrop(*texel_sse, sse), z = ImprovementZ(*texel_sse, sse);
-    const bool keep = drop >= o.min_improvement && z >= o.min_z && h * h < (1 - o.min_improvement) * Sq(*heldout);
-    std::string changes;
-    for (int a : losers) changes += Msg(changes.empty() ? "" : ", ", a);
-    log(Msg("holes in cluster ", b, "'s region (", texels.size(), " texels of clusters ", changes,
-            emptied.empty() ? std::string() : Msg("; ", emptied.size(), " emptied"), "): held-out RMSE ", h,
-            " against ", *heldout, " (", 100 * drop, " % lower without the worst 2 % of texels, z = ", z, "): ",
-            keep ? "relabelled" : "kept apart"));
-    if (keep) {
-      *texel_sse = std::move(sse);
-      *heldout = h;
-      moved += long(texels.size());
-      for (auto it = emptied.rbegin(); it != emptied.rend(); ++it) tried.erase(tried.begin() + *it);
-    } else {
-      while (cl.K() > int(basis.size())) cl.RemoveBasis(cl.K() - 1);
-      for (size_t j = 0; j < basis.size(); ++j) cl.SetBasis(int(j), basis[j]);
-      cl.assign() = assign;
-    }
+  std::map<int, std::vector<int>> by_region;
+  for (const RegionHole& h : FindRegionHoles(cl.neighbours(), cl.assign(), cl.usable(), max_texels)) {
+    std::vector<int>& t = by_region[h.surround];
+    t.insert(t.end(), h.texels.begin(), h.texels.end());
   }
-  return moved;
+  if (by_region.empty()) return 0;
+  // One region is tried, the one with the most hole texels (the lowest label
+  // on ties): each try costs a cluster fit per cluster it touches and a
+  // held-out measure, and on the generalization benchmark's dev and extra
+  // halves no second try was kept (docs/measurements.md).
+  auto most = by_region.begin();
+  for (auto it = by_region.begin(); it != by_region.end(); ++it)
+    if (it->second.size() > most->second.size()) most = it;
+  const int b = most->first;
+  const std::vector<int>& texels = most->second;
+  if (o.SecondsLeft() <= 0) {
+    est->cut_by_deadline.push_back("region holes");
+    return 0;
+  }
+  const std::vector<BasisMaterial> basis = cl.basis();
+  const std::vector<int> assign = cl.assign();
+  std::set<int> losers;
+  for (int t : texels) losers.insert(assign[t]), cl.assign()[t] = b;
+  cl.SetBasis(b, FitSplitModel(cl, b, &basis[b]));
+  std::vector<int> emptied;
+  for (int a : losers) {
+    if (std::find(cl.assign().begin(), cl.assign().end(), a) == cl.assign().end()) emptied.push_back(a);
+    else cl.SetBasis(a, MakeBasis(basis[a].spec, cl.Fit(basis[a].spec, a, basis[a].params, 0, -1, false), a));
+  }
+  for (auto it = emptied.rbegin(); it != emptied.rend(); ++it) cl.RemoveBasis(*it);
+  std::vector<double> sse;
+  const double h = cl.HeldoutRmse(false, &sse);
+  // A clear gain, as a split must bring (min_improvement, min_z), with and
+  // without the worst texels: in a noisy blend the specks are material, and
+  // relabelling them trades small gains for losses.
+  const double drop = TrimmedDrop(*texel_sse, sse), z = ImprovementZ(*texel_sse, sse);
+  const bool keep = drop >= o.min_improvement && z >= o.min_z && h * h < (1 - o.min_improvement) * Sq(*heldout);
+  std::string changes;
+  for (int a : losers) changes += Msg(changes.empty() ? "" : ", ", a);
+  log(Msg("holes in cluster ", b, "'s region (", texels.size(), " texels of clusters ", changes,
+          emptied.empty() ? std::string() : Msg("; ", emptied.size(), " emptied"), "): held-out RMSE ", h,
+          " against ", *heldout, " (", 100 * drop, " % lower without the worst 2 % of texels, z = ", z, "): ",
+          keep ? "relabelled" : "kept apart"));
+  if (!keep) {
+    cl.Restore(basis, assign);
+    return 0;
+  }
+  *texel_sse = std::move(sse);
+  *heldout = h;
+  return long(texels.size());
 }
 
 }  // namespace svbrdf

@@ -35,8 +35,8 @@ std::vector<RegionHole> FindRegionHoles(const std::vector<std::vector<int>>& nei
 
 // The split search's chosen state (`texel_sse`: its held-out squared error
 // per texel, `heldout`: its held-out RMSE, both updated): its regions'
-// holes, grouped by region, the region with the most hole texels first;
-// each group relabelled to its region, that cluster refitted
+// holes, grouped by region; the group of the region with the most hole
+// texels relabelled to that region, its cluster refitted
 // (FitSplitModel: it may change model, gaining a lobe from the holes'
 // highlights) and those that lost texels refitted from their fits (their
 // models kept; a cluster left empty is removed), kept when the held-out

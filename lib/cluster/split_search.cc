@@ -108,11 +108,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
   // a split proposal already tried from the same state is not fitted again.
   // Cycles between states (4 <-> 5 clusters) are impossible by construction.
   std::unordered_set<uint64_t> evaluated{est.history.back().partition}, proposed;
-  auto restore = [&cl](const State& st) {
-    while (cl.K() > int(st.basis.size())) cl.RemoveBasis(cl.K() - 1);
-    for (size_t j = 0; j < st.basis.size(); ++j) cl.SetBasis(int(j), st.basis[j]);
-    cl.assign() = st.assign;
-  };
+  auto restore = [&cl](const State& st) { cl.Restore(st.basis, st.assign); };
   const int target = o.force_clusters > 0 ? o.force_clusters : o.max_clusters;
   constexpr int kSplitVariants = 3;
   std::vector<int> variants_tried;  // per cluster, since the last accepted split
