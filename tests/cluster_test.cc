@@ -59,6 +59,18 @@ TEST(Nnls, MatchesBruteForceOverActiveSets) {
   }
 }
 
+// The solver keeps its work on the stack up to kNnlsMaxUnknowns unknowns (16,
+// the most basis materials); a larger or mismatched system is an error, not
+// a write past its buffers.
+TEST(Nnls, SixteenUnknownsAreSolvedMoreAreAnError) {
+  const Eigen::MatrixXd I16 = Eigen::MatrixXd::Identity(16, 16);
+  const Eigen::VectorXd w = NnlsNormal(I16, Eigen::VectorXd::LinSpaced(16, -1.0, 2.0));
+  ASSERT_EQ(w.size(), 16);
+  for (int i = 0; i < 16; ++i) EXPECT_NEAR(w[i], std::max(0.0, -1.0 + 0.2 * i), 1e-9) << i;
+  EXPECT_THROW(NnlsNormal(Eigen::MatrixXd::Identity(17, 17), Eigen::VectorXd::Ones(17)), Error);
+  EXPECT_THROW(NnlsNormal(Eigen::MatrixXd::Identity(3, 3), Eigen::VectorXd::Ones(4)), Error);
+}
+
 // Samples of texels whose BRDF is sum_k mix[t][k] * basis[k], each seen
 // from 24 random direction pairs with 0.5 % noise; every third view near the
 // mirror direction, or with probability specular_share[t] when given.
@@ -554,6 +566,36 @@ TEST(Cluster, NoStateIsEvaluatedTwice) {
   for (const ClusterStep& h : est.history) EXPECT_TRUE(seen.insert(h.partition).second) << h.clusters << " clusters";
   EXPECT_GE(est.states_revisited, 1);  // a revisit was attempted and skipped
   EXPECT_EQ(est.basis.size(), 1u);
+}
+
+// A failed split is followed by one more split of its state (a look-ahead)
+// once per best state by default: the second failure from the same state
+// backtracks at once. Every split fails here (min_z out of reach), so the
+// history holds the look-aheads (3 clusters past the best 1) and nothing else
+// past 2 clusters.
+TEST(Cluster, LooksAheadOncePerBestState) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Glossy(0.1, 2.0, 40), Lambert(0.1, 0.3, 0.6)};
+  std::vector<int> label(300);
+  for (size_t t = 0; t < label.size(); ++t) label[t] = int(t * 3 / label.size());
+  const SampleSet s = MakeSamples(truth, label, 13);
+  // {states of 3 clusters evaluated (look-aheads), those plus splits that
+  // led back to an evaluated state or were skipped as tried (a look-ahead
+  // may land on one)}.
+  auto search = [&](int per_state) {
+    ReconstructOptions o = Quiet();
+    o.min_z = 1e9;
+    o.max_clusters = 4;
+    o.max_failed_splits = 3;
+    o.lookaheads_per_state = per_state;
+    const SvbrdfEstimate est = EstimateSvbrdf(s, LineAtlas(300), o);
+    EXPECT_EQ(est.basis.size(), 1u);
+    const long three =
+        std::count_if(est.history.begin(), est.history.end(), [](const ClusterStep& h) { return h.clusters == 3; });
+    return std::make_pair(three, three + long(est.states_revisited));
+  };
+  EXPECT_EQ(search(0).first, 0);
+  EXPECT_EQ(search(1).first, 1);
+  EXPECT_GT(search(3).second, search(1).second);
 }
 
 // Three materials meeting at a junction with soft borders a few texels wide

@@ -37,6 +37,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "(1-8)");
   c->add_option("--max-failed-splits", job->estimate.max_failed_splits,
                 "the split search stops after this many splits in a row that did not improve on the best state");
+  c->add_option("--lookaheads-per-state", job->estimate.lookaheads_per_state,
+                "a failed split is followed by one more split of its state (a look-ahead) this many times per best\n"
+                "state; later failures backtrack at once (0 = never look ahead)");
   c->add_option("--core-fit-rings", job->estimate.core_fit_rings,
                 "final materials are fitted on their clusters' texels whose neighbours this many rings out share\n"
                 "their cluster (blend zones at region borders left to the mixing weights; 0 = every texel, the\n"

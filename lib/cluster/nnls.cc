@@ -1,38 +1,47 @@
 #include "cluster/nnls.h"
 
+#include <algorithm>
+
+#include "core/error.h"
+
 namespace svbrdf {
 
-Eigen::VectorXd NnlsNormal(const Eigen::MatrixXd& AtA, const Eigen::VectorXd& Atb, int max_iterations) {
+NnlsVector NnlsNormal(const Eigen::Ref<const Eigen::MatrixXd>& AtA, const Eigen::Ref<const Eigen::VectorXd>& Atb,
+                      int max_iterations) {
   const int n = static_cast<int>(Atb.size());
-  Eigen::VectorXd w = Eigen::VectorXd::Zero(n);
-  std::vector<bool> passive(n, false);
-  const double tol = 1e-12 * (1.0 + AtA.diagonal().cwiseAbs().maxCoeff());
+  if (n > kNnlsMaxUnknowns || AtA.rows() != n || AtA.cols() != n)
+    throw Error(Msg("NNLS: ", AtA.rows(), " x ", AtA.cols(), " normal matrix for ", n, " unknowns (at most ",
+                    kNnlsMaxUnknowns, ")"));
+  NnlsVector w = NnlsVector::Zero(n);
+  bool passive[kNnlsMaxUnknowns] = {};
+  const double tol = 1e-12 * (1.0 + (n ? AtA.diagonal().cwiseAbs().maxCoeff() : 0.0));
   // Solves the unconstrained problem restricted to the passive set.
-  auto solve_passive = [&](Eigen::VectorXd* z) {
-    std::vector<int> idx;
+  auto solve_passive = [&](NnlsVector* z) {
+    int idx[kNnlsMaxUnknowns];
+    int m = 0;
     for (int i = 0; i < n; ++i)
-      if (passive[i]) idx.push_back(i);
+      if (passive[i]) idx[m++] = i;
     z->setZero(n);
-    if (idx.empty()) return;
-    Eigen::MatrixXd M(idx.size(), idx.size());
-    Eigen::VectorXd r(idx.size());
-    for (size_t a = 0; a < idx.size(); ++a) {
+    if (m == 0) return;
+    NnlsMatrix M(m, m);
+    NnlsVector r(m);
+    for (int a = 0; a < m; ++a) {
       r[a] = Atb[idx[a]];
-      for (size_t b = 0; b < idx.size(); ++b) M(a, b) = AtA(idx[a], idx[b]);
+      for (int b = 0; b < m; ++b) M(a, b) = AtA(idx[a], idx[b]);
       M(a, a) += tol;  // keeps rank-deficient sets (identical basis columns) solvable
     }
-    const Eigen::VectorXd s = M.ldlt().solve(r);
-    for (size_t a = 0; a < idx.size(); ++a) (*z)[idx[a]] = s[a];
+    const NnlsVector s = M.ldlt().solve(r);
+    for (int a = 0; a < m; ++a) (*z)[idx[a]] = s[a];
   };
+  NnlsVector grad(n), z(n);
   for (int it = 0; it < max_iterations; ++it) {
-    const Eigen::VectorXd grad = Atb - AtA * w;  // negative gradient of the objective / 2
+    grad.noalias() = Atb - AtA * w;  // negative gradient of the objective / 2
     int best = -1;
     for (int i = 0; i < n; ++i)
       if (!passive[i] && grad[i] > tol && (best < 0 || grad[i] > grad[best])) best = i;
     if (best < 0) break;
     passive[best] = true;
     for (int inner = 0; inner < 3 * n; ++inner) {
-      Eigen::VectorXd z;
       solve_passive(&z);
       bool feasible = true;
       for (int i = 0; i < n; ++i)

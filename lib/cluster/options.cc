@@ -18,6 +18,8 @@ void ReconstructOptions::Check() const {
     throw Error("reconstruct: control min share must be in [0, 1]");
   if (max_failed_splits < 1 || max_failed_splits > 20)
     throw Error(Msg("reconstruct: --max-failed-splits must be in [1, 20], got ", max_failed_splits));
+  if (lookaheads_per_state < 0 || lookaheads_per_state > 20)
+    throw Error(Msg("reconstruct: --lookaheads-per-state must be in [0, 20], got ", lookaheads_per_state));
   if (!(min_split_coherence >= 0 && min_split_coherence <= 1))
     throw Error(Msg("reconstruct: min split coherence must be in [0, 1], got ", min_split_coherence));
   if (!(poor_fit > 0)) throw Error("reconstruct: poor-fit share must be > 0");

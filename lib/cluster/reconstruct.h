@@ -120,6 +120,15 @@ struct ReconstructOptions {
   // at most one failed one, while the search went on for 2.5-19 s after
   // its last kept split with 4 (bench_results/generalization.md).
   int max_failed_splits = 2;
+  // A split that fails is followed by one more split of the same state (a
+  // look-ahead: 3 materials split into 2 clusters can be worse than 1, the
+  // next split separates them) this many times per best state; later
+  // failures from it backtrack at once. On the generalization benchmark's
+  // dev and extra halves and the four issue captures a look-ahead was kept
+  // after the first failure from a state (4 of 4 kept look-aheads), never
+  // after the second (0 of 11 tried), each of those costing about a second
+  // (docs/measurements.md, "Look-ahead once per state").               [0, 20]
+  int lookaheads_per_state = 1;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
   double min_cluster_fraction = 0.03;  // a split's halves must each hold this share of texels

@@ -116,6 +116,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
   int fails = 0;
   bool lookahead = false;  // the current state is one unaccepted split past the best
   int root_cluster = 0;    // the cluster of the best state whose split is being looked past
+  int lookaheads = 0;       // look-aheads from the best state (o.lookaheads_per_state)
   // Duration of the last split (Anytime: ReconstructOptions::deadline); the
   // caller's estimate before the first.
   double step_seconds = first_step_seconds;
@@ -365,14 +366,16 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       best = h;
       best_state = states.size() - 1;
       lookahead = false;
+      lookaheads = 0;
       std::fill(variants_tried.begin(), variants_tried.end(), 0);
       if (!blend) fails = 0;
       else if (++fails >= o.max_failed_splits) break;
-    } else if (!lookahead && !interleaved && cl.K() < target) {
+    } else if (!lookahead && lookaheads < o.lookaheads_per_state && !interleaved && cl.K() < target) {
       // Look one split ahead before giving up: splitting 3 materials into 2
       // clusters can be worse than 1 cluster (a colour mixed into the wrong
       // basis), while the next split separates them.
       lookahead = true;
+      ++lookaheads;
       root_cluster = k;
       variants_tried.assign(cl.K(), 0);
     } else {

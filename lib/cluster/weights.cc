@@ -45,6 +45,7 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
                                 std::vector<float>* weights, std::vector<float>* residual,
                                 std::vector<double>* per_texel, const std::vector<float>* smooth_from) const {
   const int K = this->K();
+  if (K > kNnlsMaxUnknowns) throw Error(Msg("mixing weights: ", K, " basis materials (at most ", kNnlsMaxUnknowns, ")"));
   const std::vector<uint8_t> dist = ClusterDistances();
   std::vector<double> sse(nt_, 0.0);
   std::vector<int64_t> cnt(nt_, 0);
@@ -63,18 +64,19 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
     // samples extrapolates badly to unseen light/view pairs (seen: false
     // highlights). The others' normal equations are replaced below; only
     // their diagonals (the trace prior's scale) are accumulated.
-    std::vector<int> mixing;
+    int mixing[kNnlsMaxUnknowns];
+    int n_mixing = 0;
     for (int k = 0; k < K; ++k)
-      if (k == k0 || dist[size_t(t) * K + k] <= m.radius) mixing.push_back(k);
+      if (k == k0 || dist[size_t(t) * K + k] <= m.radius) mixing[n_mixing++] = k;
     // Second pass: the prior is the mean of the neighbours' first-pass
     // weights (a smoothness prior). Neighbours without first-pass weights
     // (too few training samples when fitting on the training set) do not
     // count: their zeros would pull the texel towards black. Without any,
     // the prior stays the texel's own cluster material.
     int neighbours = 0;
-    Eigen::VectorXd neighbour_mean[3];
+    NnlsVector neighbour_mean[3];
     if (smooth_from) {
-      for (int c = 0; c < 3; ++c) neighbour_mean[c] = Eigen::VectorXd::Zero(K);
+      for (int c = 0; c < 3; ++c) neighbour_mean[c] = NnlsVector::Zero(K);
       for (int u : neighbours_[t]) {
         if (train_count_[u] == 0 || (!fit_on_all && !usable_[u])) continue;
         ++neighbours;
@@ -85,33 +87,34 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
         for (int c = 0; c < 3; ++c) neighbour_mean[c] /= neighbours;
     }
     std::vector<double> omega(size_t(e - b), 1.0);
-    Eigen::VectorXd w[3];
+    NnlsVector w[3];
     // The mixture's prediction of sample i, channel c, under the weights w.
     auto mixed = [&](int64_t i, int c) {
       double q = 0;
       for (int k = 0; k < K; ++k) q += w[c](k) * pred_[k][3 * i + c];
       return q;
     };
-    Eigen::MatrixXd AtA[3], Atb[3];
+    NnlsMatrix AtA[3];
+    NnlsVector Atb[3];
     for (int pass = 0; pass <= m.robust_passes; ++pass) {
-      for (int c = 0; c < 3; ++c) AtA[c].setZero(K, K), Atb[c].setZero(K, 1);
+      for (int c = 0; c < 3; ++c) AtA[c].setZero(K, K), Atb[c].setZero(K);
       for (int64_t i = b; i < e; ++i) {
         if (!fit_on_all && holdout_[i]) continue;
         const double om = omega[i - b];
         for (int c = 0; c < 3; ++c) {
           for (int k = 0; k < K; ++k) AtA[c](k, k) += om * pred_[k][3 * i + c] * pred_[k][3 * i + c];
-          for (size_t a = 0; a < mixing.size(); ++a) {
+          for (int a = 0; a < n_mixing; ++a) {
             const int k = mixing[a];
             const double pk = om * pred_[k][3 * i + c];
             Atb[c](k) += pk * s_.y[c][i];
-            for (size_t j = 0; j < a; ++j) AtA[c](k, mixing[j]) += pk * pred_[mixing[j]][3 * i + c];
+            for (int j = 0; j < a; ++j) AtA[c](k, mixing[j]) += pk * pred_[mixing[j]][3 * i + c];
           }
         }
       }
       // Prior: the texel is its cluster's material at the brightness that fits
       // it best. Without it, K free weights on a handful of samples overfit
       // (seen: held-out error rising with K).
-      Eigen::VectorXd w0 = Eigen::VectorXd::Zero(K);
+      NnlsVector w0 = NnlsVector::Zero(K);
       double yp = 0, pp = 0;
       int64_t nfit = 0;
       for (int64_t i = b; i < e; ++i) {
@@ -121,31 +124,31 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
         for (int c = 0; c < 3; ++c) yp += om * pred_[k0][3 * i + c] * s_.y[c][i], pp += om * Sq(pred_[k0][3 * i + c]);
       }
       w0[k0] = pp > 0 && !(m.unit_sum_samples > 0) ? BrightnessScale(yp, pp) : 1.0;
-      Eigen::VectorXd w0c[3] = {w0, w0, w0};
+      NnlsVector w0c[3] = {w0, w0, w0};
       double prior_samples = m.prior_samples;
       if (neighbours > 0) {
         for (int c = 0; c < 3; ++c) w0c[c] = neighbour_mean[c];
         prior_samples = m.smooth_samples;
       }
       const double per_sample = 3.0 * std::max<int64_t>(1, nfit);
-      Eigen::VectorXd lambda(K);
+      NnlsVector lambda(K);
       double trace = 0;
       for (int c = 0; c < 3; ++c) trace += AtA[c].trace();
       for (int k = 0; k < K; ++k) {
         const double own = AtA[0](k, k) + AtA[1](k, k) + AtA[2](k, k);
         lambda[k] = prior_samples * (m.per_material_prior ? own : trace / K) / per_sample + 1e-12;
       }
-      const Eigen::VectorXd mean_target = (w0c[0] + w0c[1] + w0c[2]) / 3.0;
+      const NnlsVector mean_target = (w0c[0] + w0c[1] + w0c[2]) / 3.0;
       // The unit-sum prior mu (sum_k w_k - 1)^2 per channel (the materials
       // that may not mix drop out below with their rows and columns).
       const double mu = m.unit_sum_samples * trace / K / per_sample;
       for (int c = 0; c < 3; ++c) {
         AtA[c].diagonal() += lambda;
-        Atb[c].col(0) += lambda.cwiseProduct(m.per_channel ? w0c[c] : mean_target);
+        Atb[c] += lambda.cwiseProduct(m.per_channel ? w0c[c] : mean_target);
         if (mu > 0) AtA[c].array() += mu, Atb[c].array() += mu;
       }
       for (int k = 0; k < K; ++k)
-        if (std::find(mixing.begin(), mixing.end(), k) == mixing.end())
+        if (std::find(mixing, mixing + n_mixing, k) == mixing + n_mixing)
           for (int c = 0; c < 3; ++c) {
             AtA[c].row(k).setZero();
             AtA[c].col(k).setZero();
@@ -156,15 +159,16 @@ double Clustering::MixtureError(const WeightModel& m, bool fit_on_all, bool eval
       if (m.per_channel) {
         for (int c = 0; c < 3; ++c) {
           AtA[c].triangularView<Eigen::StrictlyUpper>() = AtA[c].transpose();
-          Eigen::VectorXd wc = NnlsNormal(AtA[c], Atb[c].col(0));
+          NnlsVector wc = NnlsNormal(AtA[c], Atb[c]);
           if (pass > 0) moved = std::max(moved, (wc - w[c]).cwiseAbs().maxCoeff());
           w[c] = std::move(wc);
         }
       } else {
-        Eigen::MatrixXd A = AtA[0] + AtA[1] + AtA[2];
-        Eigen::VectorXd w_old = w[0];
+        NnlsMatrix A = AtA[0] + AtA[1] + AtA[2];
+        const NnlsVector w_old = w[0];
         A.triangularView<Eigen::StrictlyUpper>() = A.transpose();
-        w[0] = w[1] = w[2] = NnlsNormal(A, (Atb[0] + Atb[1] + Atb[2]).col(0));
+        const NnlsVector sum_b = Atb[0] + Atb[1] + Atb[2];
+        w[0] = w[1] = w[2] = NnlsNormal(A, sum_b);
         if (pass > 0) moved = (w[0] - w_old).cwiseAbs().maxCoeff();
       }
       // Converged (weights settle to well below a display step).
