@@ -352,27 +352,10 @@ BasisMaterial MakeBasis(const ModelSpec& spec, const FitResult& r, int index) {
   return b;
 }
 
-namespace {
-// Refine: a cluster whose texels moved by at most this share (texels that
-// left or joined it, over its texels) refits robustly from its fit
-// (Clustering::FitIds, init_is_fit).
-constexpr double kNearFitMovedShare = 0.02;
-
-double MovedShare(const std::vector<int>& before, const std::vector<int>& after, int k) {
-  long moved = 0, size = 0;
-  for (size_t t = 0; t < before.size() && t < after.size(); ++t) {
-    size += after[t] == k;
-    moved += (before[t] == k) != (after[t] == k);
-  }
-  return size > 0 ? double(moved) / double(size) : 1.0;
-}
-}  // namespace
-
 // Assign and refit until stable or `iterations` done; drops empty clusters.
 void Refine(Clustering& cl, int iterations, bool fits_current, const std::atomic<bool>* stop) {
   for (int it = 0; it < iterations; ++it) {
     if (stop && *stop) return;
-    const std::vector<int> before = cl.assign();
     const long changed = cl.Assign();
     bool removed = false;  // renumbers the clusters: MembershipChanged no longer applies
     for (int k = cl.K() - 1; k >= 0; --k) {
@@ -393,15 +376,8 @@ void Refine(Clustering& cl, int iterations, bool fits_current, const std::atomic
       // same texels) instead of ending the reconstruction.
       // So does a refit that reflects far more light than it receives (a
       // Lafortune lobe grown where no photo saw it) when the previous did not.
-      // A cluster whose texels barely moved (a fit of them, when the fit
-      // was made on the texels before the move) starts its robust refit from
-      // that fit instead of solving least squares first: the least-squares
-      // solve only sets the robust scale, which such a move hardly changes.
-      const bool near_fit = !removed && (it > 0 || fits_current) &&
-                            MovedShare(before, cl.assign(), k) <= kNearFitMovedShare;
       try {
-        const std::vector<double> refit =
-            cl.FitIds(b.spec, cl.Ids(k, false), b.params, 0, -1, k, false, near_fit).params;
+        const std::vector<double> refit = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
         double albedo = 0;
         if (ReflectsMoreThanItReceives(b.spec, refit, &albedo) && !ReflectsMoreThanItReceives(b.spec, b.params))
           std::fprintf(stderr, "  cluster %d keeps its previous fit: the refit reflects more light than it receives "
