@@ -127,7 +127,7 @@ struct ReconstructOptions {
   // dev and extra halves and the four issue captures a look-ahead was kept
   // after the first failure from a state (4 of 4 kept look-aheads), never
   // after the second (0 of 11 tried), each of those costing about a second
-  // (docs/measurements.md, "Look-ahead once per state").               [0, 20]
+  // (docs/measurements.md, "One look-ahead per state").               [0, 20]
   int lookaheads_per_state = 1;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
   double model_min_z = 1.0;      // a model with more parameters must win by this many standard errors
