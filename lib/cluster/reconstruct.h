@@ -125,8 +125,8 @@ struct ReconstructOptions {
   // next split separates them) this many times per best state; later
   // failures from it backtrack at once. On the generalization benchmark's
   // dev and extra halves and the four issue captures a look-ahead was kept
-  // after the first failure from a state (4 of 4 kept look-aheads), never
-  // after the second (0 of 11 tried), each of those costing about a second
+  // after the first failure from a state (4 of the 21 tried there), never
+  // after the second (0 of 10 tried), each of those costing about a second
   // (docs/measurements.md, "One look-ahead per state").               [0, 20]
   int lookaheads_per_state = 1;
   double poor_fit = 0.10;        // report clusters whose held-out RMSE exceeds this share of their signal RMS
