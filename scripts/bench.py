@@ -81,6 +81,13 @@ def run(cmd, log_path, timed_rss=False):
     return wall, p.stdout, rss
 
 
+def write_atomic(path, text):
+    """Writes under a temporary name, then renames: a killed run leaves the previous results whole."""
+    with open(path + ".tmp", "w") as f:
+        f.write(text)
+    os.replace(path + ".tmp", path)
+
+
 def parse_evaluate(text):
     """Parses `svbrdf evaluate` output."""
     per_image = []

@@ -52,13 +52,6 @@ TRUE_COUNT = 3
 WALL_BAR_S = 20.0
 
 
-def write_atomic(path, text):
-    """Writes under a temporary name, then renames: a killed run leaves the previous results whole."""
-    with open(path + ".tmp", "w") as f:
-        f.write(text)
-    os.replace(path + ".tmp", path)
-
-
 def ensure(case, cache, mi_python, log):
     name, shape, mset, spp, cspp, seed, _ = case
     cap = os.path.join(cache, str(seed))
@@ -109,7 +102,7 @@ def main():
                             text=True).stdout.strip()
     doc = {"date": datetime.datetime.now().isoformat(timespec="seconds"), "commit": commit,
            "threads": args.threads, "binary": args.binary, "cases": rows}
-    write_atomic(args.out + ".json", json.dumps(doc, indent=1) + "\n")
+    bench.write_atomic(args.out + ".json", json.dumps(doc, indent=1) + "\n")
     L = ["# Issue 24's four capture types, fresh seeds", "",
          "`scripts/bench_issue_captures.py` (its docstring says how the captures are drawn): 40 photos + 12 held "
          "out, 320x240, three materials, two bounces; commit %s, %d threads, %s." % (commit, args.threads,
@@ -125,7 +118,7 @@ def main():
           "(independent sampler seed, the ceiling spp of the table's capture, no added noise), scored by the same "
           "`svbrdf evaluate` against the held-out photos; a noise-free relight can score above it where the "
           "photos' Monte Carlo noise dominates.", ""]
-    write_atomic(args.out + ".md", "\n".join(L))
+    bench.write_atomic(args.out + ".md", "\n".join(L))
     print("wrote %s.{md,json}" % args.out)
 
 

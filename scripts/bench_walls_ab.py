@@ -21,26 +21,24 @@ import datetime
 import json
 import os
 import re
-import subprocess
 import sys
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-import bench  # noqa: E402  (snapshot_binary, environment)
+import bench  # noqa: E402  (run, snapshot_binary, environment, write_atomic)
 
 
 def run(binary, capture, out, threads):
     """One reconstruct; returns wall seconds, split trials and the choices."""
     log = out + ".log"
-    t0 = time.monotonic()
-    with open(log, "w") as f:
-        rc = subprocess.call([binary, "reconstruct", os.path.join(capture, "scene.json"), "--out", out,
-                              "--threads", str(threads), "--no-report"], stdout=f, stderr=subprocess.STDOUT)
-    wall = time.monotonic() - t0
+    if os.path.exists(log):
+        os.remove(log)  # bench.run appends
+    try:
+        wall, _, _ = bench.run([binary, "reconstruct", os.path.join(capture, "scene.json"), "--out", out,
+                                "--threads", str(threads), "--no-report"], log)
+    except bench.StepError as e:
+        sys.exit("bench_walls_ab: %s on %s: %s (log %s)" % (binary, capture, e, log))
     text = open(log).read()
-    if rc != 0:
-        sys.exit("bench_walls_ab: %s failed on %s (exit %d), see %s" % (binary, capture, rc, log))
     trials = len(re.findall(r"\] \d+ clusters \(split of", text))
     # The decisions, without timestamps: chosen count and every model choice.
     choices = [re.sub(r"^\s*\[[^]]*\]\s*", "", l) for l in text.splitlines()
@@ -63,9 +61,7 @@ def write_markdown(doc, path):
         lines.append("| %s | %.2f | %.2f | %+.2f | %d / %d | %s |" % (
             r["name"], r["A"]["wall_s"], r["B"]["wall_s"], r["B"]["wall_s"] - r["A"]["wall_s"], r["A"]["trials"],
             r["B"]["trials"], "yes" if r["same_choices"] else "**no**"))
-    tmp = path + ".tmp"
-    open(tmp, "w").write("\n".join(lines) + "\n")
-    os.replace(tmp, path)
+    bench.write_atomic(path, "\n".join(lines) + "\n")
 
 
 def main(argv=None):
@@ -105,9 +101,7 @@ def main(argv=None):
     doc = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
            "threads": a.threads, "binaries": bins, "env": bench.environment(bins["B"]["snapshot"], bins["B"]["sha256"]),
            "rows": rows}
-    tmp = a.out + ".json.tmp"
-    json.dump(doc, open(tmp, "w"), indent=1)
-    os.replace(tmp, a.out + ".json")
+    bench.write_atomic(a.out + ".json", json.dumps(doc, indent=1) + "\n")
     write_markdown(doc, a.out + ".md")
     print("wrote %s.{md,json}" % a.out)
 
