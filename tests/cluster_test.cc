@@ -1594,7 +1594,8 @@ TEST(Stats, DisplayScaleErrorsAreTheScoredPixelValues) {
 }
 
 // Three clusters on a w x h grid: x < a, a <= x < b, x >= b.
-int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMaterial>& basis, int a, int b) {
+int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMaterial>& basis, int a, int b,
+                    bool per_channel = false) {
   ReconstructOptions o = Quiet();
   const Atlas atlas = GridAtlas(w, h);
   Clustering cl(s, atlas, o);
@@ -1603,6 +1604,7 @@ int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMat
   WeightModel m;
   m.radius = 8;
   m.unit_sum_samples = 1000.0;
+  m.per_channel = per_channel;
   SvbrdfEstimate est;
   const int removed = PruneMaterials(cl, m, &est, StageLog(o.progress));
   EXPECT_EQ(cl.K(), 3 - removed);
@@ -1622,6 +1624,18 @@ TEST(Prune, ABlendZoneIsNotAMaterial) {
   std::vector<int> label(w * h);
   for (int t = 0; t < w * h; ++t) label[t] = t % w < 16 ? 0 : t % w < 24 ? 1 : 2;
   EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24), 0);
+}
+
+// Per-channel weights recolour one paint into any other: pruning under them
+// would remove two of three paints side by side. Pruning scores one weight
+// per material whatever the final weights are (another colour is another
+// material), and keeps all three.
+TEST(Prune, PerChannelWeightsDoNotMakeOnePaintAnother) {
+  const std::vector<BasisMaterial> three = {Lambert(0.6, 0.1, 0.1), Lambert(0.35, 0.26, 0.12), Lambert(0.1, 0.42, 0.14)};
+  const int w = 40, h = 12;
+  std::vector<int> label(w * h);
+  for (int t = 0; t < w * h; ++t) label[t] = t % w < 16 ? 0 : t % w < 24 ? 1 : 2;
+  EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24, /*per_channel=*/true), 0);
 }
 
 // The core of a labelled region: texels whose neighbours up to `rings`
@@ -1698,9 +1712,17 @@ TEST(CoreFits, ASharpMaterialIsFittedOnItsCoreNotItsBlendZone) {
   // no other cluster) holds most of its samples.
   cl.assign() = label;
   EXPECT_EQ(cl.Ids(0, false), train_ids_of_columns(10));
+  EXPECT_TRUE(cl.FitsOnCore(0));
+  // Model selection's fallback (a core fit at its bounds): all its texels.
+  cl.SetAllTexelFits(0);
+  EXPECT_FALSE(cl.FitsOnCore(0));
+  EXPECT_EQ(cl.Ids(0, false), train_ids_of_columns(12));
   // Cluster 0 = columns 0-2: a core of one column; all its texels are fitted.
-  for (int t = 0; t < n * n; ++t) cl.assign()[t] = t % n < 3 ? 0 : 1;
-  EXPECT_EQ(cl.Ids(0, false), train_ids_of_columns(3));
+  Clustering thin(s, GridAtlas(n, n), o);
+  thin.well_seen_fits_ = true;
+  for (int t = 0; t < n * n; ++t) thin.assign()[t] = t % n < 3 ? 0 : 1;
+  EXPECT_FALSE(thin.FitsOnCore(0));
+  EXPECT_EQ(thin.Ids(0, false), train_ids_of_columns(3));
 }
 
 }  // namespace

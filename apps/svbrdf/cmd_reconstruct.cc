@@ -42,8 +42,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "state; later failures backtrack at once (0 = never look ahead)");
   c->add_option("--core-fit-rings", job->estimate.core_fit_rings,
                 "final materials are fitted on their clusters' texels whose neighbours this many rings out share\n"
-                "their cluster (blend zones at region borders left to the mixing weights; 0 = every texel, the\n"
-                "default; max 8)");
+                "their cluster (blend zones at region borders left to the mixing weights; a cluster whose core\n"
+                "fit is at a model bound is fitted on all its texels; 0 = every texel; max 8)");
   c->add_option("--robust", job->estimate.robust_scale, "Cauchy loss scale of cluster fits (-1 = automatic, 0 = least squares)");
   c->add_option("--fit-compression", job->estimate.fit.compression,
                 "split-search fits weigh a sample's residual by 1/sqrt(1 + Y/(c x median Y)), Y its brightness\n"

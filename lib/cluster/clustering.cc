@@ -60,19 +60,7 @@ std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
   }
   const int min_count = well_seen_fits_ && 2 * well_train >= all_train ? std::max(o_.min_samples, o_.min_fit_samples)
                                                                        : o_.min_fit_samples;
-  // The core of the cluster (ReconstructOptions::core_fit_rings), when it
-  // holds half of the cluster's training samples or more.
-  std::vector<char> core;
-  if (well_seen_fits_ && k >= 0 && o_.core_fit_rings > 0) {
-    core = CoreTexels(neighbours_, assign_, o_.core_fit_rings);
-    int64_t in_core = 0, in_all = 0;
-    for (int t = 0; t < nt_; ++t) {
-      if (!usable_[t] || train_count_[t] < min_count || assign_[t] != k) continue;
-      in_all += train_count_[t];
-      if (core[t]) in_core += train_count_[t];
-    }
-    if (2 * in_core < in_all) core.clear();
-  }
+  const std::vector<char> core = FitCore(k, min_count);
   std::vector<int64_t> ids;
   for (int t = 0; t < nt_; ++t) {
     if (!usable_[t] || train_count_[t] < min_count || (k >= 0 && assign_[t] != k)) continue;
@@ -81,6 +69,34 @@ std::vector<int64_t> Clustering::Ids(int k, bool heldout) const {
       if (bool(holdout_[i]) == heldout) ids.push_back(i);
   }
   return ids;
+}
+
+std::vector<char> Clustering::FitCore(int k, int min_count) const {
+  // The core of the cluster (ReconstructOptions::core_fit_rings), when it
+  // holds half of the cluster's training samples or more.
+  if (!well_seen_fits_ || k < 0 || o_.core_fit_rings <= 0) return {};
+  if (size_t(k) < all_texel_fits_.size() && all_texel_fits_[size_t(k)]) return {};
+  std::vector<char> core = CoreTexels(neighbours_, assign_, o_.core_fit_rings);
+  int64_t in_core = 0, in_all = 0;
+  for (int t = 0; t < nt_; ++t) {
+    if (!usable_[t] || train_count_[t] < min_count || assign_[t] != k) continue;
+    in_all += train_count_[t];
+    if (core[t]) in_core += train_count_[t];
+  }
+  if (2 * in_core < in_all) core.clear();
+  return core;
+}
+
+void Clustering::SetAllTexelFits(int k) {
+  if (size_t(k) >= all_texel_fits_.size()) all_texel_fits_.resize(size_t(k) + 1, 0);
+  all_texel_fits_[size_t(k)] = 1;
+}
+
+bool Clustering::FitsOnCore(int k) const {
+  // Ids' choice of texels, only whether a core is taken (the min_count of
+  // the well-seen rule does not decide it: a core holding half of the
+  // cluster's samples at one count holds about half at the other).
+  return !FitCore(k, o_.min_fit_samples).empty();
 }
 
 std::vector<char> CoreTexels(const std::vector<std::vector<int>>& neighbours, const std::vector<int>& label, int rings) {
@@ -111,6 +127,7 @@ void Clustering::SetBasis(int k, const BasisMaterial& b) {
   if (k == K()) {
     basis_.push_back(b);
     pred_.emplace_back();
+    all_texel_fits_.resize(basis_.size(), 0);
   } else {
     // Restoring a search state sets every basis again; the ones it did not
     // change keep their predictions (a prediction visits every sample).
@@ -130,6 +147,7 @@ void Clustering::Restore(const std::vector<BasisMaterial>& basis, const std::vec
 void Clustering::RemoveBasis(int k) {
   basis_.erase(basis_.begin() + k);
   pred_.erase(pred_.begin() + k);
+  if (size_t(k) < all_texel_fits_.size()) all_texel_fits_.erase(all_texel_fits_.begin() + k);
   for (int& a : assign_) a = a == k ? 0 : (a > k ? a - 1 : a);
 }
 

@@ -104,8 +104,14 @@ class Clustering {
   // min_samples or more training samples when those hold at least half of
   // its training samples, else of all; of those, the core's (CoreTexels,
   // ReconstructOptions::core_fit_rings) when it holds half of their
-  // training samples.
+  // training samples, unless cluster k fits on all its texels
+  // (SetAllTexelFits).
   std::vector<int64_t> Ids(int k, bool heldout) const;
+  // Whether Ids(k, ...) takes cluster k's core.
+  bool FitsOnCore(int k) const;
+  // Cluster k's fits on all its texels from now on, not its core (model
+  // selection's fallback for a core fit at its bounds, estimate.cc).
+  void SetAllTexelFits(int k);
 
   // Sets basis k (k == K() appends one) and its predictions.
   void SetBasis(int k, const BasisMaterial& b);
@@ -187,6 +193,8 @@ class Clustering {
   // The cluster with the lowest error of texel t pooled with half its
   // neighbours' (those with count > 0), as Assign chooses; -1 if none.
   int PooledBest(const std::vector<double>& err, int t, const std::vector<int>& count) const;
+  // Cluster k's core for Ids (empty: all its texels).
+  std::vector<char> FitCore(int k, int min_count) const;
 
   const SampleSet& s_;
   int threads_ = 0;
@@ -201,6 +209,7 @@ class Clustering {
   std::vector<char> changed_;
   std::vector<BasisMaterial> basis_;
   std::vector<std::vector<float>> pred_;  // per basis: 3 values per sample
+  std::vector<char> all_texel_fits_;      // per basis: SetAllTexelFits
 };
 
 // Per texel: whether every surface neighbour up to `rings` rings out (8-

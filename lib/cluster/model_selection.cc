@@ -110,9 +110,10 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
 
 }  // namespace
 
-bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params) {
+bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends) {
   const std::vector<ParamInfo> info = spec.Params();
   for (size_t i = 0; i < info.size() && i < params.size(); ++i) {
+    if (!metallic_ends && info[i].name == "metallic") continue;
     const double tol = 1e-3 * (info[i].upper - info[i].lower);
     if (params[i] >= info[i].upper - tol) return true;
     if (!info[i].linear && params[i] <= info[i].lower + tol) return true;

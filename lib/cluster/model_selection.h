@@ -37,8 +37,9 @@ struct ModelCandidate {
 // Whether a fit leans on its model's bounds: a shape parameter within 0.1 %
 // of its range from either bound (an ior at 3, a roughness at its minimum),
 // or an amplitude at its upper bound. An amplitude at 0 is a term switched
-// off, not a bound the data push against.
-bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params);
+// off, not a bound the data push against. `metallic_ends` false: a metallic
+// of 0 or 1 (a dielectric, a metal) does not count either.
+bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends = true);
 
 // The choice among fully fitted candidates. A candidate is "clearly worse"
 // than the one with the lowest RMSE when its RMSE is higher by `margin` and

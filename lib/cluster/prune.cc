@@ -38,6 +38,14 @@ int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstima
   // Errors in the units held-out photos are scored in, as model selection's
   // (stats.h DisplayScale), unless too many samples are white there.
   WeightModel m = weight_model;
+  // Scored with one weight per material even where the final weights are
+  // per channel: per-channel weights recolour one diffuse material into any
+  // other, so under them two diffuse materials of different colours always
+  // explain each other. A material is a BRDF up to a brightness (as
+  // Clustering::ScaledError treats it); another colour is another material.
+  // Seen with fits on the regions' cores (Cluster.SoftBordersMixEveryMaterialAround):
+  // the orange diffuse, a clean Lambert, was removed as the blue one recoloured.
+  m.per_channel = false;
   const std::vector<int64_t> held = cl.Ids(-1, true);
   const bool display = !o.display_scale.empty() && ClippedShare(cl.samples(), held, o.display_scale) <= kMaxClippedShare;
   if (display) m.display = &o.display_scale;

@@ -171,13 +171,15 @@ struct ReconstructOptions {
   // clusters' core: the texels whose surface neighbours up to this many
   // rings out all belong to the same cluster, when the core holds half of
   // the cluster's training samples or more (else all its texels). Region
-  // borders hold the blends of soft and noisy material maps, which the
-  // mixing weights represent; in a basis fit they pull a sharp material
-  // towards a broad lobe. Off by default (`--core-fit-rings`): 2 rings
-  // helped the generalization dev half (the torus of seed 19 most), but on
-  // a bump-mapped capture the normal stage then refined no texel, and 1
-  // ring lost on the dev half's bear and camel (docs/measurements.md). [0, 8]
-  int core_fit_rings = 0;
+  // borders hold the blends of soft, noisy and sharp-but-sampled material
+  // maps, which the mixing weights represent; in a basis fit they pull a
+  // sharp material towards a broad lobe, and the blend zone of a material
+  // with a sharp highlight can decide another's model (a Beckmann rough
+  // plastic beside a sharp principled chose a GGX coat). A cluster whose
+  // core fit is at a model bound is chosen again on all its texels
+  // (estimate.cc). 0 = every texel; 1 ring lost on the dev half's bear and
+  // camel (docs/measurements.md, "Core fits").                         [0, 8]
+  int core_fit_rings = 2;
   // Per texel, to take part in fits and in the split search's held-out
   // measure. One: cluster fits pool all their texels, and a texel's weights
   // have priors (its cluster's material, its neighbours). With 8 photos most
