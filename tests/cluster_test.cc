@@ -1594,8 +1594,9 @@ TEST(Stats, DisplayScaleErrorsAreTheScoredPixelValues) {
 }
 
 // Three clusters on a w x h grid: x < a, a <= x < b, x >= b.
+// `m`: the final weights' model (default: scalar, radius 8, unit sum 1000).
 int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMaterial>& basis, int a, int b,
-                    bool per_channel = false) {
+                    const WeightModel* final_weights = nullptr) {
   ReconstructOptions o = Quiet();
   const Atlas atlas = GridAtlas(w, h);
   Clustering cl(s, atlas, o);
@@ -1604,7 +1605,7 @@ int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMat
   WeightModel m;
   m.radius = 8;
   m.unit_sum_samples = 1000.0;
-  m.per_channel = per_channel;
+  if (final_weights) m = *final_weights;
   SvbrdfEstimate est;
   const int removed = PruneMaterials(cl, m, &est, StageLog(o.progress));
   EXPECT_EQ(cl.K(), 3 - removed);
@@ -1626,16 +1627,22 @@ TEST(Prune, ABlendZoneIsNotAMaterial) {
   EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24), 0);
 }
 
-// Per-channel weights recolour one paint into any other: pruning under them
-// would remove two of three paints side by side. Pruning scores one weight
-// per material whatever the final weights are (another colour is another
-// material), and keeps all three.
+// Per-channel weights (without a unit-sum prior or a pull towards the
+// texel's own material) recolour a white paint into any darker one: scored
+// under them, an orange or a blue paint beside a white one would be removed
+// as the white one recoloured. Pruning scores one weight per material
+// whatever the final weights are (another colour is another material), and
+// keeps all three.
 TEST(Prune, PerChannelWeightsDoNotMakeOnePaintAnother) {
-  const std::vector<BasisMaterial> three = {Lambert(0.6, 0.1, 0.1), Lambert(0.35, 0.26, 0.12), Lambert(0.1, 0.42, 0.14)};
+  const std::vector<BasisMaterial> three = {Lambert(0.7, 0.7, 0.7), Lambert(0.6, 0.25, 0.1), Lambert(0.1, 0.3, 0.6)};
   const int w = 40, h = 12;
   std::vector<int> label(w * h);
   for (int t = 0; t < w * h; ++t) label[t] = t % w < 16 ? 0 : t % w < 24 ? 1 : 2;
-  EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24, /*per_channel=*/true), 0);
+  WeightModel free_colours;
+  free_colours.per_channel = true;
+  free_colours.radius = 8;
+  free_colours.prior_samples = 0;
+  EXPECT_EQ(PrunedMaterials(MakeSamples(three, label, 43), w, h, three, 16, 24, &free_colours), 0);
 }
 
 // The core of a labelled region: texels whose neighbours up to `rings`
