@@ -193,6 +193,8 @@ class Clustering {
   // The cluster with the lowest error of texel t pooled with half its
   // neighbours' (those with count > 0), as Assign chooses; -1 if none.
   int PooledBest(const std::vector<double>& err, int t, const std::vector<int>& count) const;
+  // Ids' fewest training samples per texel of cluster k (the well-seen rule).
+  int FitMinCount(int k) const;
   // Cluster k's core for Ids (empty: all its texels).
   std::vector<char> FitCore(int k, int min_count) const;
 

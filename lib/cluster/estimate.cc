@@ -172,11 +172,13 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   // leaves out the blend zones (ReconstructOptions::core_fit_rings), but
   // where model error, not blending, dominates, the core alone can miss
   // what the borders show and pin a parameter: on a bump-mapped capture a
-  // Cook-Torrance fitted on the core went to its ior bound and relit its
-  // texels far worse (NormalRefinement.LowersHeldOutErrorOnABumpMappedCapture).
+  // Cook-Torrance fitted on the core took its specular amplitude to its
+  // bound and relit its texels far worse, and the normal stage then kept no
+  // normal (NormalRefinement.LowersHeldOutErrorOnABumpMappedCapture).
   // A metallic of 0 or 1 is a dielectric or a metal, which the core does
-  // tell (a principled rough plastic of metallic 0 refitted on all texels
-  // took the blend zone's highlights back: extra seed 29, 50.9 -> 48.5 dB).
+  // tell: refitted on all texels, a principled plastic of metallic 0 took
+  // the blend zone's highlights back (extra seed 29, docs/measurements.md,
+  // "Fits on the regions' cores").
   for (int k = 0; k < cl.K() && o.SecondsLeft() > 0; ++k) {
     const BasisMaterial core_fit = cl.basis()[k];
     if (!cl.FitsOnCore(k) || !FitAtBound(core_fit.spec, core_fit.params, false)) continue;
