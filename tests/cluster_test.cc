@@ -1594,7 +1594,7 @@ TEST(Stats, DisplayScaleErrorsAreTheScoredPixelValues) {
 }
 
 // Three clusters on a w x h grid: x < a, a <= x < b, x >= b.
-// `m`: the final weights' model (default: scalar, radius 8, unit sum 1000).
+// `final_weights`: the final weights' model (default: scalar, radius 8, unit sum 1000).
 int PrunedMaterials(const SampleSet& s, int w, int h, const std::vector<BasisMaterial>& basis, int a, int b,
                     const WeightModel* final_weights = nullptr) {
   ReconstructOptions o = Quiet();

@@ -176,8 +176,8 @@ struct ReconstructOptions {
   // sharp material towards a broad lobe, and the blend zone of a material
   // with a sharp highlight can decide another's model (a Beckmann rough
   // plastic beside a sharp principled chose a GGX coat). A cluster whose
-  // core fit is at a model bound is chosen again on all its texels
-  // (estimate.cc). 0 = every texel; 1 ring lost on the dev half's bear and
+  // core fit is at a model bound keeps its model but is refitted on all its
+  // texels (estimate.cc). 0 = every texel; 1 ring lost on the dev half's bear and
   // camel (docs/measurements.md, "Core fits").                         [0, 8]
   int core_fit_rings = 2;
   // Per texel, to take part in fits and in the split search's held-out
