@@ -139,10 +139,14 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
               "where interreflection was traced: try dark basis materials as mirrors (smooth conductors), fitted to\n"
               "what their mirror direction sees, kept by held-out error (on by default, --no-mirrors: off)");
   c->add_flag("--fine-weights,!--no-fine-weights", job->fine_weights,
-              "meshes with texture coordinates: solve the mixing weights again on the automatic atlas (--texture-size 0,\n"
-              "at most twice the side) when it is finer and the region borders hold at least twice the held-out error\n"
-              "per texel of the regions' insides, the basis fixed; kept by held-out error (on by default,\n"
-              "--no-fine-weights: the maps stay at --texture-size)");
+              "solve the mixing weights again near the region borders on a finer atlas (a texel of --fine-texel-footprint,\n"
+              "at most twice the side) when the borders hold at least twice the held-out error per texel of the regions'\n"
+              "insides, the basis fixed; kept by held-out error (on by default, --no-fine-weights: the maps stay at the\n"
+              "search's atlas)");
+  c->add_option("--fine-texel-footprint", job->fine.texel_footprint,
+                "fine weights: texel size of the finer atlas in pixel footprints at the median view");
+  c->add_option("--fine-band-rings", job->fine.band_rings,
+                "fine weights: coarse texels this many rings or fewer from a region border are gathered again");
   c->add_option("--ps-normal-rounds", job->photometric_normal_rounds,
                 "photometric captures with unknown normals: rounds of basis selection <-> per-pixel normal search\n"
                 "(where the Lambertian start misfits, --ps-search-misfit; 0 = the Lambertian start alone)");

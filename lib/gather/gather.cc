@@ -68,7 +68,7 @@ std::string GatherStats::Report(bool with_warnings) const {
 
 namespace {
 
-enum Reason : uint8_t { kKept, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid, kTurning, kProbeUnlit, kProbeForeign, kContrast };
+enum Reason : uint8_t { kKept, kNotRequested, kBorderTexel, kOutsideImage, kBackFacing, kOccluded, kOutsideMask, kUnlit, kShadowed, kSaturated, kInvalid, kTurning, kProbeUnlit, kProbeForeign, kContrast };
 
 // How fast the smooth normal turns on texel t's triangle: the largest angle
 // between two of its vertex normals over the length of its longest edge (rad/m).
@@ -310,6 +310,13 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   const double max_turn = options.max_footprint_turn_deg * kPi / 180;
   const double min_contrast_turn = options.contrast_min_turn_deg * kPi / 180;
 
+  // GatherOptions::sample_texel, once per texel.
+  std::vector<char> requested;
+  if (options.sample_texel) {
+    requested.resize(nt);
+    ParallelFor(nt, options.threads, [&](long t) { requested[t] = options.sample_texel(atlas.texels[t]); }, 1024);
+  }
+
   // Kept samples per image (texel, record); one full-size scratch buffer is
   // reused across images, so memory grows with kept samples, not texels x views.
   std::vector<std::vector<std::pair<int32_t, Record>>> per_image(scene.images.size());
@@ -340,6 +347,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     ParallelFor(nt, options.threads, [&](long t) {
       const Texel& tx = atlas.texels[t];
       Record& r = recs[t];
+      if (!requested.empty() && !requested[t]) return void(r.reason = kNotRequested);
       if (no_border && !tx.interior) {
         // Distance (texels) from the texel centre to the clamped point it measures.
         const Vec3i& fu = out.mesh.face_uvs[tx.prim];
@@ -448,8 +456,10 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
     const long invalid_before = st.invalid, saturated_before = st.saturated;
     for (long t = 0; t < nt; ++t) {
       const Record& r = recs[t];
+      if (r.reason == kNotRequested) continue;  // GatherOptions::sample_texel
       ++st.candidates;
       switch (r.reason) {
+        case kNotRequested: break;
         case kKept: ++kept; signal += r.signal; per_image[i].emplace_back(static_cast<int32_t>(t), r); break;
         case kBorderTexel: ++st.border_texel; break;
         case kOutsideImage: ++st.outside_image; break;

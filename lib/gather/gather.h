@@ -14,6 +14,7 @@
 // samples above `noise_floor`: lights off, lens cap, far too short an
 // exposure, masks on the background) is an error saying what to check.
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -141,6 +142,11 @@ struct GatherOptions {
   double noise_floor = 2.0 / 255;
   // Least share of kept samples above the noise floor for a usable capture.
   double min_signal_fraction = 0.01;
+  // Only texels for which this returns true take samples (empty: all;
+  // called once per texel, from several threads). The others stay in the atlas without samples and are not counted as
+  // candidates (the fine-weights stage gathers a finer atlas near the
+  // material borders only: pipeline/fine_weights_stage.h).
+  std::function<bool(const Texel&)> sample_texel;
   int threads = 0;
   bool progress = true;
   void Check() const;

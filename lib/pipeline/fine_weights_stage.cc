@@ -1,6 +1,7 @@
 #include "pipeline/fine_weights_stage.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "atlas/surface_neighbours.h"
 #include "cluster/clustering.h"
@@ -38,24 +39,96 @@ Clustering Fixed(const GatherResult& g, const ReconstructOptions& o, const Svbrd
   return cl;
 }
 
+// Continuous texel coordinates in `atlas` (texture coordinates of `mesh`)
+// of the surface point that `tx` (a texel of an atlas of the same
+// triangles) stands for.
+Vec2 TexelCoordsIn(const Mesh& mesh, const Atlas& atlas, const Texel& tx) {
+  const Vec3i& fu = mesh.face_uvs[size_t(tx.prim)];
+  const Vec2 uv = (1 - tx.b1 - tx.b2) * mesh.texcoords[fu[0]] + tx.b1 * mesh.texcoords[fu[1]] +
+                  tx.b2 * mesh.texcoords[fu[2]];
+  return UvToTexel(uv, atlas.width, atlas.height);
+}
+
+// The texel of `atlas` under continuous texel coordinates p, or the nearest
+// covered one within a texel (atlas borders); -1 if none.
+int TexelAt(const Atlas& atlas, const Vec2& p) {
+  const int x = int(std::floor(p.x())), y = int(std::floor(p.y()));
+  int best = -1;
+  double best_d = 1e300;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int u = x + dx, v = y + dy;
+      if (u < 0 || v < 0 || u >= atlas.width || v >= atlas.height || atlas.At(u, v) < 0) continue;
+      const double d = (Vec2(u + 0.5, v + 0.5) - p).squaredNorm();
+      if (d < best_d) best_d = d, best = atlas.At(u, v);
+    }
+  return best;
+}
+
+// Per-texel values (`stride` floats per texel of `atlas`) at continuous
+// texel coordinates p, bilinear as a map lookup reads them, over the
+// covered texels of the lookup only; the nearest texel's where none is.
+void BilinearAt(const Atlas& atlas, const std::vector<float>& values, int stride, const Vec2& p, float* out) {
+  const double fx = p.x() - 0.5, fy = p.y() - 0.5;
+  const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+  const double ax = fx - x0, ay = fy - y0;
+  std::fill(out, out + stride, 0.0f);
+  double total = 0;
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const int u = x0 + dx, v = y0 + dy;
+      if (u < 0 || v < 0 || u >= atlas.width || v >= atlas.height || atlas.At(u, v) < 0) continue;
+      const double w = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay);
+      if (!(w > 0)) continue;
+      const float* src = &values[size_t(atlas.At(u, v)) * stride];
+      for (int j = 0; j < stride; ++j) out[j] += float(w * src[j]);
+      total += w;
+    }
+  if (total > 0) {
+    for (int j = 0; j < stride; ++j) out[j] = float(out[j] / total);
+    return;
+  }
+  const int t = TexelAt(atlas, p);
+  if (t >= 0) std::copy(&values[size_t(t) * stride], &values[size_t(t + 1) * stride], out);
+}
+
+// Weights of `cl` (model m) fitted on its training samples only, and their
+// held-out RMSE (HeldoutRmse(m)) with its per-texel squared errors.
+std::vector<float> TrainingWeights(const Clustering& cl, const WeightModel& m, double* heldout_rmse,
+                                   std::vector<double>* per_texel) {
+  int64_t n = 0;
+  std::vector<float> first, weights;
+  if (m.smooth) cl.MixtureError(m, false, false, &n, &first, nullptr);
+  const double sse = cl.MixtureError(m, false, false, &n, &weights, nullptr, per_texel, m.smooth ? &first : nullptr);
+  *heldout_rmse = n ? std::sqrt(sse / n) : 0.0;
+  return weights;
+}
+
 }  // namespace
 
+void FineWeightsOptions::Check() const {
+  if (!(texel_footprint > 0)) throw Error(Msg("fine weights: texel_footprint must be > 0 (got ", texel_footprint, ")"));
+  if (band_rings < 1) throw Error(Msg("fine weights: band_rings must be >= 1 (got ", band_rings, ")"));
+}
+
 FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOptions& gather,
-                                            const ReconstructOptions& o, bool normal_map, bool indirect_removed,
-                                            GatherResult* g, SvbrdfEstimate* est) {
+                                            const FineWeightsOptions& fo, const ReconstructOptions& o,
+                                            bool normal_map, bool indirect_removed, GatherResult* g,
+                                            SvbrdfEstimate* est) {
+  fo.Check();
   FineWeightsReport r;
   r.coarse_size = g->atlas.width;
-  if (g->made_uvs || normal_map || indirect_removed || est->basis.empty() || gather.texture_size == 0 ||
-      o.SecondsLeft() <= 0)
-    return r;
+  if (normal_map || indirect_removed || est->basis.empty() || o.SecondsLeft() <= 0) return r;
+  const int K = int(est->basis.size());
   // The coarse atlas's held-out error per texel, at region borders (a
   // neighbour of another label) against inside the regions: only where the
   // borders carry the error can finer weights lower it.
   const WeightModel m = ChosenWeightModel(o, *est);
-  const std::vector<int> coarse_label = LargestWeightLabels(est->weights, int(est->basis.size()));
+  const std::vector<int> coarse_label = LargestWeightLabels(est->weights, K);
   Clustering coarse_cl = Fixed(*g, o, *est, coarse_label);
   std::vector<double> per_texel;
-  r.heldout_rmse_coarse = coarse_cl.HeldoutRmse(m, &per_texel);
+  double coarse_rmse = 0;
+  const std::vector<float> coarse_train = TrainingWeights(coarse_cl, m, &coarse_rmse, &per_texel);
   double border_sse = 0, inside_sse = 0;
   int64_t border_n = 0, inside_n = 0;
   for (size_t t = 0; t < per_texel.size() && t < coarse_cl.neighbours().size(); ++t) {
@@ -69,43 +142,94 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   r.border_excess = border_n && inside_n && inside_sse > 0 ? (border_sse / border_n) / (inside_sse / inside_n) : 0.0;
   if (r.border_excess < kMinBorderExcess) {
     r.line = Msg("fine weights: not tried (held-out error per texel at region borders ", r.border_excess,
-                 " x that inside the regions)");
+                 " x that inside the regions; held-out RMSE ", coarse_rmse, ")");
     return r;
   }
+  // The band the fine atlas samples: coarse texels within fo.band_rings of a
+  // region border. Inside the regions the coarse weights are as good as
+  // finer ones (one material), and the gather's cost grows with the texels.
+  const std::vector<char> core = CoreTexels(coarse_cl.neighbours(), coarse_label, fo.band_rings);
   GatherOptions fine_options = gather;
   fine_options.texture_size = 0;
+  fine_options.texel_footprint = fo.texel_footprint;
   fine_options.progress = false;
-  // At most twice as fine a side: further, a texel's few samples pin its
-  // weights worse than the coarse texel's many, at a cost that grows with
-  // the square of the side.
+  // At most twice as fine a side: the cost grows with the square of the side.
   fine_options.max_atlas_size = std::max(16, std::min(gather.max_atlas_size, 2 * g->atlas.width));
+  // The coarse gather's decision on the footprint sub-samples holds for the
+  // same surface (and they cost a third of a gather where they are dropped).
+  if (!g->stats.footprint_kept) fine_options.footprint_subsamples = 0;
+  else fine_options.footprint_min_tilt_deg = 0;
+  const Mesh& coarse_mesh = g->mesh;
+  const Atlas& coarse_atlas = g->atlas;
+  fine_options.sample_texel = [&](const Texel& tx) {
+    const int c = TexelAt(coarse_atlas, TexelCoordsIn(coarse_mesh, coarse_atlas, tx));
+    return c >= 0 && size_t(c) < core.size() && !core[size_t(c)];
+  };
   GatherResult fine = Gather(scene, fine_options);
   r.fine_size = fine.atlas.width;
   if (fine.atlas.width <= g->atlas.width || fine.atlas.height <= g->atlas.height) return r;
+  if (fine.mesh.faces.size() != coarse_mesh.faces.size())
+    throw Error(Msg("fine weights: the fine atlas's mesh has ", fine.mesh.faces.size(), " triangles, the coarse one ",
+                    coarse_mesh.faces.size()));
   r.tried = true;
 
-  // Fine texels take the label of the coarse texel their centre falls in.
-  std::vector<int> fine_label(fine.atlas.texels.size(), -1);
-  for (size_t t = 0; t < fine.atlas.texels.size(); ++t) {
-    const Texel& tx = fine.atlas.texels[t];
-    const int cx = std::min(g->atlas.width - 1, int((tx.x + 0.5) * g->atlas.width / fine.atlas.width));
-    const int cy = std::min(g->atlas.height - 1, int((tx.y + 0.5) * g->atlas.height / fine.atlas.height));
-    const int c = g->atlas.At(cx, cy);
-    if (c >= 0) fine_label[t] = coarse_label[size_t(c)];
+  // Per fine texel: its coarse texel coordinates, and the band's texels take
+  // the label of the coarse texel they fall in.
+  const size_t nf = fine.atlas.texels.size();
+  std::vector<Vec2> at_coarse(nf);
+  std::vector<char> in_band(nf, 0);
+  std::vector<int> fine_label(nf, -1);
+  for (size_t t = 0; t < nf; ++t) {
+    at_coarse[t] = TexelCoordsIn(coarse_mesh, coarse_atlas, fine.atlas.texels[t]);
+    const int c = TexelAt(coarse_atlas, at_coarse[t]);
+    if (c < 0) continue;
+    fine_label[t] = coarse_label[size_t(c)];
+    in_band[t] = !core[size_t(c)];
   }
   Clustering fine_cl = Fixed(fine, o, *est, fine_label);
+  // Both on the band's held-out samples: the fine weights, and the coarse
+  // ones (fitted on the same training photos) as a map lookup reads them.
+  const int stride = K * 3;
+  std::vector<float> coarse_on_fine(nf * stride, 0.0f);
+  for (size_t t = 0; t < nf; ++t)
+    if (in_band[t]) BilinearAt(coarse_atlas, coarse_train, stride, at_coarse[t], &coarse_on_fine[t * stride]);
+  int64_t n = 0;
+  const double coarse_sse = fine_cl.HeldoutSse(coarse_on_fine, &n);
+  r.heldout_rmse_coarse = n ? std::sqrt(coarse_sse / n) : 0.0;
   r.heldout_rmse_fine = fine_cl.HeldoutRmse(m);
-  r.kept = r.heldout_rmse_fine < r.heldout_rmse_coarse;
-  r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width,
-               "^2 (border error ", r.border_excess, " x the interior's), held-out RMSE ", r.heldout_rmse_fine,
-               " against ", r.heldout_rmse_coarse, ": ", r.kept ? "kept" : "not kept");
+  r.kept = n > 0 && r.heldout_rmse_fine < r.heldout_rmse_coarse;
+  r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width, "^2 within ",
+               fo.band_rings, " texels of the region borders (border error ", r.border_excess,
+               " x the interior's; ", std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf,
+               " fine texels), held-out RMSE there ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
+               r.kept ? "kept" : "not kept");
   if (!r.kept) return r;
 
   SvbrdfEstimate out = *est;
   fine_cl.LabelUnseenByAllSamples();
   fine_cl.FinalWeights(m, &out.weights, &out.residual);
-  ConfidenceAndFill(fine.samples, fine.atlas, o, int(out.basis.size()), fine_cl.neighbours(), &out);
+  ConfidenceAndFill(fine.samples, fine.atlas, o, K, fine_cl.neighbours(), &out);
+  // Outside the band (and where the band has no samples of its own), the
+  // coarse estimate as a map lookup reads it.
+  for (size_t t = 0; t < nf; ++t) {
+    if (in_band[t] && fine.samples.texel_begin[t + 1] > fine.samples.texel_begin[t]) continue;
+    BilinearAt(coarse_atlas, est->weights, stride, at_coarse[t], &out.weights[t * stride]);
+    const int c = TexelAt(coarse_atlas, at_coarse[t]);
+    if (c < 0 || size_t(c) >= est->confidence.size() || size_t(c) >= est->residual.size()) continue;
+    out.confidence[t] = est->confidence[size_t(c)];
+    out.residual[t] = est->residual[size_t(c)];
+  }
+  for (size_t t = 0; t < nf; ++t) {  // as ConfidenceAndFill labels them
+    double best = -1;
+    for (int k = 0; k < K; ++k) {
+      const float* w = &out.weights[t * stride + size_t(k) * 3];
+      if (w[0] + w[1] + w[2] > best) best = w[0] + w[1] + w[2], out.label[t] = k;
+    }
+  }
+  out.texels_without_samples = est->texels_without_samples;
+  out.texels_filled = est->texels_filled;
   *est = std::move(out);
+  fine.stats = g->stats;  // what the fits saw
   *g = std::move(fine);
   return r;
 }

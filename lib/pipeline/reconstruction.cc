@@ -131,6 +131,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   // Options before any work: a value out of range is named at once, not
   // after the gathering.
   job.estimate.Check();
+  job.fine.Check();
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
     throw Error(Msg("reconstruct: --time-budget must be >= 0 seconds, got ", job.time_budget_s));
   if (!(job.time_spent_before_s >= 0 && std::isfinite(job.time_spent_before_s)))
@@ -287,9 +288,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   }
 
   FineWeightsReport fine_weights;
-  if (job.fine_weights && !g.made_uvs && job.gather.texture_size > 0) {
+  if (job.fine_weights) {
     timer.Start("fine weights");
-    fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, eo, nr.kept,
+    fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, job.fine, eo, nr.kept,
                                              interreflection.removed_share > 0 || mirrors.replaced > 0, &g, &est);
     if (!fine_weights.line.empty()) std::fprintf(stderr, "  %s\n", fine_weights.line.c_str());
     if (fine_weights.kept)

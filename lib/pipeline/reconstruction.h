@@ -9,6 +9,7 @@
 
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
+#include "pipeline/fine_weights_stage.h"
 #include "indirect/interreflection.h"
 #include "io/material.h"
 #include "io/scene.h"
@@ -33,11 +34,11 @@ struct ReconstructionJob {
   // renders the map in it. World is the format before "normal_map_space".
   NormalMapSpace normal_map_space = NormalMapSpace::kTangent;
   bool report = true;  // pictures and summary under out_dir/report
-  // Meshes with texture coordinates: the mixing weights solved again on the
-  // automatic atlas when it is finer than gather.texture_size, with the
-  // basis fixed, and kept by held-out error (fine_weights_stage.h); false:
-  // the maps stay at gather.texture_size.
+  // The mixing weights solved again near the material borders on a finer
+  // atlas, with the basis fixed, and kept by held-out error
+  // (fine_weights_stage.h); false: the maps stay at the search's atlas.
   bool fine_weights = true;
+  FineWeightsOptions fine;
   // "mitsuba" or "gltf": only models that renderer reproduces exactly
   // (export/render_target.h), so that the export renders like the
   // reconstruction; "" or "any": every candidate.

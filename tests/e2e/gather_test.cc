@@ -484,5 +484,39 @@ TEST(Gather, BadCapturesFailClearly) {
   fs::remove_all(dir);
 }
 
+// GatherOptions::sample_texel: only the requested texels take samples, the
+// same samples an unrestricted gather gives them, and the others are not
+// counted as candidates (the fine-weights stage gathers a band along the
+// material borders this way).
+TEST(Gather, SampleTexelGathersOnlyTheRequestedTexels) {
+  const std::string dir = TinyCapture("svbrdf_gather_requested_", [](SynthOptions& o) {
+    o.num_images = 6;
+    o.num_heldout = 0;
+  });
+  const Scene scene = LoadScene(dir + "/scene.json");
+  GatherOptions go;
+  go.texture_size = 32;
+  go.progress = false;
+  const GatherResult all = Gather(scene, go);
+  go.sample_texel = [](const Texel& t) { return t.x < 16; };
+  const GatherResult left = Gather(scene, go);
+  ASSERT_EQ(left.atlas.texels.size(), all.atlas.texels.size());
+  ASSERT_GT(left.samples.size(), 100);
+  EXPECT_LT(left.samples.size(), all.samples.size());
+  EXPECT_LT(left.stats.candidates, all.stats.candidates);
+  EXPECT_EQ(left.stats.kept, left.samples.size());
+  for (int t = 0; t < left.samples.num_texels; ++t) {
+    const int64_t n = left.samples.texel_begin[t + 1] - left.samples.texel_begin[t];
+    if (left.atlas.texels[t].x >= 16) {
+      EXPECT_EQ(n, 0) << "texel " << t;
+      continue;
+    }
+    ASSERT_EQ(n, all.samples.texel_begin[t + 1] - all.samples.texel_begin[t]) << "texel " << t;
+    for (int64_t j = 0; j < n; ++j)
+      EXPECT_EQ(left.samples.y[0][left.samples.texel_begin[t] + j], all.samples.y[0][all.samples.texel_begin[t] + j]);
+  }
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace svbrdf

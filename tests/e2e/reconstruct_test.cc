@@ -316,6 +316,50 @@ TEST(Reconstruct, FineWeightsDrawSharpBordersFinerThanTheSearchAtlas) {
   fs::remove_all(dir);
 }
 
+// The same on a mesh without texture coordinates (a scan): its chart atlas
+// has texels of 4 pixel footprints here, so the sharp borders blur; the
+// band along them is gathered again on a chart atlas of 2-footprint texels
+// and relights the held-out views better, with the same basis materials.
+TEST(Reconstruct, FineWeightsOnAChartAtlasDrawSharpBordersFiner) {
+  const std::string dir = Scratch("fine_weights_charts");
+  SynthOptions o = SynthPreset("tiny");
+  o.material.texture_size = 256;
+  o.material.blend = 0.005;
+  o.mesh_uvs = false;
+  Synthesize(o, dir + "/capture");
+  auto run = [&](bool fine, const std::string& out, nlohmann::json* summary) {
+    ReconstructionJob job;
+    job.scene_path = dir + "/capture/scene.json";
+    job.out_dir = dir + "/" + out;
+    job.gather.texel_footprint = 4;
+    job.gather.progress = false;
+    job.estimate.progress = false;
+    job.fine_weights = fine;
+    job.fine.texel_footprint = 2;
+    *summary = RunReconstruction(job);
+    return LoadMaterial(job.out_dir);
+  };
+  nlohmann::json coarse_summary, fine_summary;
+  const Material coarse = run(false, "coarse", &coarse_summary), fine = run(true, "fine", &fine_summary);
+  ASSERT_TRUE(fine_summary["fine_weights"]["tried"].get<bool>());
+  EXPECT_TRUE(fine_summary["fine_weights"]["kept"].get<bool>());
+  EXPECT_LT(fine_summary["fine_weights"]["heldout_rmse_fine"].get<double>(),
+            fine_summary["fine_weights"]["heldout_rmse_coarse"].get<double>());
+  EXPECT_TRUE(fine_summary["made_uvs"].get<bool>());
+  EXPECT_GT(fine.width, coarse.width);
+  EXPECT_LE(fine.width, 2 * coarse.width);
+  // The summary's sample counts stay the search's (the fits saw those).
+  EXPECT_EQ(fine_summary["samples"]["kept"].get<long>(), coarse_summary["samples"]["kept"].get<long>());
+  ASSERT_EQ(fine.basis.size(), coarse.basis.size());
+  for (size_t k = 0; k < fine.basis.size(); ++k) EXPECT_EQ(fine.basis[k].spec.Label(), coarse.basis[k].spec.Label());
+  const double psnr_coarse = e2e::HeldOutComparison(coarse, dir + "/capture", dir + "/relit_coarse").mean_psnr_srgb;
+  const double psnr_fine = e2e::HeldOutComparison(fine, dir + "/capture", dir + "/relit_fine").mean_psnr_srgb;
+  std::printf("fine weights on a chart atlas: %d^2 -> %d^2, held-out PSNR %.2f -> %.2f dB\n", coarse.width,
+              fine.width, psnr_coarse, psnr_fine);
+  EXPECT_GT(psnr_fine, psnr_coarse + 1.0);
+  fs::remove_all(dir);
+}
+
 // Checks the basis material(s) matched to the true metal: recognised as a
 // metal (IsMetal), normal-incidence reflectance within `tolerance` (relative).
 // Returns how many reconstructed materials matched the metal.
