@@ -92,6 +92,41 @@ void BilinearAt(const Atlas& atlas, const std::vector<float>& values, int stride
   if (t >= 0) std::copy(&values[size_t(t) * stride], &values[size_t(t + 1) * stride], out);
 }
 
+// The fits' view of the band's samples (FineWeightsInputs): the footprint
+// filter, and the indirect light of the coarse texel each falls in (same
+// photo) subtracted. Returns how many samples were dropped.
+int64_t PrepareBandSamples(const GatherResult& coarse, const FineWeightsInputs& in, GatherResult* fine) {
+  SampleSet& s = fine->samples;
+  std::vector<char> keep(size_t(s.size()), 1);
+  if (fine->probes.size() == size_t(s.size()))
+    for (int64_t i = 0; i < s.size(); ++i)
+      keep[i] = fine->probes[i].unlit <= in.max_unlit_share && fine->probes[i].foreign <= in.max_foreign_share;
+  if (in.indirect) {
+    const SampleSet& cs = coarse.samples;
+    for (int t = 0; t < s.num_texels; ++t) {
+      if (s.texel_begin[t + 1] == s.texel_begin[t]) continue;
+      const int c = TexelAt(coarse.atlas, TexelCoordsIn(coarse.mesh, coarse.atlas, fine->atlas.texels[t]));
+      for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+        int64_t j = -1;  // the coarse texel's sample in the same photo
+        if (c >= 0 && c < cs.num_texels)
+          for (int64_t q = cs.texel_begin[c]; q < cs.texel_begin[c + 1] && j < 0; ++q)
+            if (cs.image[q] == s.image[i]) j = q;
+        if (j < 0) {
+          keep[i] = 0;
+          continue;
+        }
+        for (int ch = 0; ch < 3; ++ch) s.y[ch][i] = std::max(0.0f, s.y[ch][i] - (*in.indirect)[ch][j]);
+      }
+    }
+  }
+  const int64_t dropped = std::count(keep.begin(), keep.end(), char(0));
+  if (dropped > 0) {
+    s = KeepSamples(s, keep);
+    fine->probes.clear();
+  }
+  return dropped;
+}
+
 // Weights of `cl` (model m) fitted on its training samples only, and their
 // held-out RMSE (HeldoutRmse(m)) with its per-texel squared errors.
 std::vector<float> TrainingWeights(const Clustering& cl, const WeightModel& m, double* heldout_rmse,
@@ -113,12 +148,14 @@ void FineWeightsOptions::Check() const {
 
 FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOptions& gather,
                                             const FineWeightsOptions& fo, const ReconstructOptions& o,
-                                            bool normal_map, bool indirect_removed, GatherResult* g,
-                                            SvbrdfEstimate* est) {
+                                            const FineWeightsInputs& in, GatherResult* g, SvbrdfEstimate* est) {
   fo.Check();
   FineWeightsReport r;
   r.coarse_size = g->atlas.width;
-  if (normal_map || indirect_removed || est->basis.empty() || o.SecondsLeft() <= 0) return r;
+  if (in.normal_map || in.indirect_unknown || est->basis.empty() || o.SecondsLeft() <= 0) return r;
+  if (in.indirect && in.indirect->at(0).size() != size_t(g->samples.size()))
+    throw Error(Msg("internal: fine weights: ", in.indirect->at(0).size(), " indirect values for ", g->samples.size(),
+                    " samples"));
   const int K = int(est->basis.size());
   // The coarse atlas's held-out error per texel, at region borders (a
   // neighbour of another label) against inside the regions: only where the
@@ -172,6 +209,7 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
     throw Error(Msg("fine weights: the fine atlas's mesh has ", fine.mesh.faces.size(), " triangles, the coarse one ",
                     coarse_mesh.faces.size()));
   r.tried = true;
+  r.dropped = PrepareBandSamples(*g, in, &fine);
 
   // Per fine texel: its coarse texel coordinates, and the band's texels take
   // the label of the coarse texel they fall in.
@@ -200,8 +238,10 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   r.kept = n > 0 && r.heldout_rmse_fine < r.heldout_rmse_coarse;
   r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width, "^2 within ",
                fo.band_rings, " texels of the region borders (border error ", r.border_excess,
-               " x the interior's; ", std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf,
-               " fine texels), held-out RMSE there ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
+               " x the interior's; ", std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf, " fine texels",
+               in.indirect ? Msg(", indirect light of the coarse texels removed, ", r.dropped, " samples dropped")
+                           : std::string(),
+               "), held-out RMSE there ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
                r.kept ? "kept" : "not kept");
   if (!r.kept) return r;
 

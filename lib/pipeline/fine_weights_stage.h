@@ -17,7 +17,9 @@
 // (weights fitted on the training photos) is lower than the coarse
 // weights' on the same samples.
 #pragma once
+#include <array>
 #include <string>
+#include <vector>
 
 #include "cluster/reconstruct.h"
 #include "gather/gather.h"
@@ -44,17 +46,33 @@ struct FineWeightsReport {
   // Held-out error per texel at the coarse atlas's region borders over that
   // inside the regions (the stage is tried above kMinBorderExcess).
   double border_excess = 0;
+  int64_t dropped = 0;  // band samples dropped (FineWeightsInputs: the footprint filter, no coarse indirect)
   std::string line;  // for the log
+};
+
+// What the fine gather's samples take from the stages before it.
+struct FineWeightsInputs {
+  bool normal_map = false;  // refined normals were kept (on the coarse atlas): the stage is skipped
+  // Indirect light was removed but not recorded per sample (no second
+  // pass's raw values, or the mirror stage replaced materials): skipped.
+  bool indirect_unknown = false;
+  // Per sample of the coarse gather (g's order) and channel, the indirect
+  // light removed from it (indirect/interreflection.h); null: none. A band
+  // sample loses that of the coarse texel it falls in, in the same photo
+  // (indirect light changes little across a texel); one whose coarse texel
+  // has no sample in that photo is dropped.
+  const std::array<std::vector<float>, 3>* indirect = nullptr;
+  // The fits' footprint filter (ReconstructionJob::fit_max_unlit_share,
+  // fit_max_foreign_share; with GatherOptions::probe_rays).
+  double max_unlit_share = 1.0, max_foreign_share = 1.0;
 };
 
 // Replaces *g (atlas, mesh and samples; its stats stay the coarse gather's)
 // and est->weights / label / confidence / residual by the fine atlas's when
-// that is kept. Skipped (report.tried false) with a normal map (refined on
-// the coarse atlas) or indirect light removed (its samples were traced on
-// the coarse atlas), and when the fine atlas is not finer than the coarse.
+// that is kept. Skipped (report.tried false) as `in` says, and when the
+// fine atlas is not finer than the coarse.
 FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOptions& gather,
                                             const FineWeightsOptions& fo, const ReconstructOptions& o,
-                                            bool normal_map, bool indirect_removed, GatherResult* g,
-                                            SvbrdfEstimate* est);
+                                            const FineWeightsInputs& in, GatherResult* g, SvbrdfEstimate* est);
 
 }  // namespace svbrdf

@@ -290,8 +290,22 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   FineWeightsReport fine_weights;
   if (job.fine_weights) {
     timer.Start("fine weights");
-    fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, job.fine, eo, nr.kept,
-                                             interreflection.removed_share > 0 || mirrors.replaced > 0, &g, &est);
+    FineWeightsInputs in;
+    in.normal_map = nr.kept;
+    in.max_unlit_share = job.fit_max_unlit_share;
+    in.max_foreign_share = job.fit_max_foreign_share;
+    std::array<std::vector<float>, 3> indirect;
+    if (interreflection.removed_share > 0) {
+      in.indirect_unknown = mirrors.replaced > 0 || raw_y[0].size() != size_t(g.samples.size());
+      if (!in.indirect_unknown) {
+        for (int c = 0; c < 3; ++c) {
+          indirect[c].resize(raw_y[c].size());
+          for (size_t i = 0; i < raw_y[c].size(); ++i) indirect[c][i] = raw_y[c][i] - g.samples.y[c][i];
+        }
+        in.indirect = &indirect;
+      }
+    }
+    fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, job.fine, eo, in, &g, &est);
     if (!fine_weights.line.empty()) std::fprintf(stderr, "  %s\n", fine_weights.line.c_str());
     if (fine_weights.kept)
       SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
