@@ -1206,6 +1206,25 @@ TEST(ModelChoice, SmoothPlasticIsNotARoughCoatAtItsBound) {
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(cl.basis()[0].params[c], plastic.params[c], 0.03) << c;
 }
 
+// A finalist whose full fit fails (seen: Lafortune lobes that reflect more
+// light than they receive, fitted to a diffuse paint whose blend zone
+// carried a near-mirror gold's highlights) leaves its place to the next
+// screened candidate, so that the choice is still made among three models.
+TEST(ModelChoice, AFailedFinalistLeavesItsPlaceToTheNextCandidate) {
+  // Screening RMSEs of six candidates; 1, 2 and 4 were the finalists.
+  const std::vector<double> rmse = {0.9, 0.1, 0.2, 0.5, 0.3, 0.4};
+  std::vector<char> fitted = {0, 1, 1, 0, 1, 0}, failed = {0, 0, 0, 0, 0, 0};
+  EXPECT_TRUE(ReplacementFinalists(rmse, fitted, failed, 3).empty());  // none failed: nothing more
+  failed[1] = failed[2] = 1;  // two finalists failed: the next two by screening error
+  EXPECT_EQ(ReplacementFinalists(rmse, fitted, failed, 3), (std::vector<size_t>{5, 3}));
+  // Those fitted and one failed again: the last one left.
+  fitted[5] = fitted[3] = 1, failed[5] = 1;
+  EXPECT_EQ(ReplacementFinalists(rmse, fitted, failed, 3), (std::vector<size_t>{0}));
+  // A candidate whose screening failed is never a replacement.
+  fitted = {0, 1, 1, 0, 1, 0}, failed = {1, 1, 0, 1, 0, 0};
+  EXPECT_EQ(ReplacementFinalists(rmse, fitted, failed, 3), (std::vector<size_t>{5}));
+}
+
 // Anytime: model selection runs per cluster while the time left exceeds
 // the predicted (then the measured) cost of one; the others keep their
 // clustering model and the cuts are named.

@@ -121,6 +121,24 @@ bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params, bool m
   return false;
 }
 
+std::vector<size_t> ReplacementFinalists(const std::vector<double>& screening_rmse, const std::vector<char>& fitted,
+                                         const std::vector<char>& failed, size_t wanted) {
+  size_t usable = 0;
+  bool any_failed = false;
+  for (size_t j = 0; j < fitted.size(); ++j)
+    if (fitted[j]) failed[j] ? void(any_failed = true) : void(++usable);
+  std::vector<size_t> out;
+  if (!any_failed) return out;
+  std::vector<size_t> order(screening_rmse.size());
+  for (size_t j = 0; j < order.size(); ++j) order[j] = j;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return screening_rmse[a] < screening_rmse[b]; });
+  for (size_t j : order) {
+    if (usable + out.size() >= wanted) break;
+    if (!fitted[j] && !failed[j]) out.push_back(j);
+  }
+  return out;
+}
+
 namespace {
 
 // ChooseModel's order of preference among candidates that are not clearly
@@ -295,10 +313,8 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       c.cv_signal = SignalRms(samples, c.all, c.display);
       for (size_t f : c.finalists) final_tasks.emplace_back(w, f);
     }
-    ParallelFor(long(final_tasks.size()), o.threads, [&](long task) {
-      Selection& c = sel[final_tasks[task].first];
+    auto fit_finalist = [&](Selection& c, Tried& t) {
       const int k = c.k;
-      Tried& t = c.tried[final_tasks[task].second];
       const FitOptions cv = ScreeningFitOptions(o, Msg("reconstruct: cluster ", k, " (model cross-validation)"));
       // The cluster's own model was screened from its split-stage material
       // (fitted on every texel, sparse ones included): multi-start around
@@ -320,7 +336,31 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
         t.rmse = kFailed, t.errors.clear(), t.failed = e.what();
       }
       t.final = true;
-    });
+    };
+    // A finalist whose full fit fails (most often: it reflects more light
+    // than it receives) leaves its place to the next screened candidate, so
+    // that the choice is still made among several models (seen on a sphere
+    // whose diffuse paint bordered a near-mirror gold: both Lafortune
+    // finalists failed, and the Cook-Torrance left alone took the gold's
+    // highlights as a lobe of its own).
+    while (!final_tasks.empty()) {
+      ParallelFor(long(final_tasks.size()), o.threads, [&](long task) {
+        Selection& c = sel[final_tasks[task].first];
+        fit_finalist(c, c.tried[final_tasks[task].second]);
+      });
+      final_tasks.clear();
+      for (size_t w = 0; w < wave; ++w) {
+        Selection& c = sel[w];
+        std::vector<double> screening(c.tried.size());
+        std::vector<char> fitted(c.tried.size()), failed(c.tried.size());
+        for (size_t j = 0; j < c.tried.size(); ++j)
+          screening[j] = c.tried[j].rmse, fitted[j] = c.tried[j].final, failed[j] = !c.tried[j].failed.empty();
+        for (size_t j : ReplacementFinalists(screening, fitted, failed, kFinalists)) {
+          c.finalists.push_back(j);
+          final_tasks.emplace_back(w, j);
+        }
+      }
+    }
     for (Selection& c : sel) {
       const int k = c.k;
       const std::vector<Tried>& tried = c.tried;

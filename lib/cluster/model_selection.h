@@ -63,6 +63,15 @@ size_t ChooseModel(const std::vector<ModelCandidate>& candidates, const ModelSpe
 size_t ChooseModelOnBoth(const std::vector<ModelCandidate>& folds, const std::vector<ModelCandidate>& held,
                          const ModelSpec& incumbent, double folds_margin, double min_z);
 
+// When some fully fitted candidates (finalists) failed (a fit Ceres gave
+// up on, one that reflects more light than it receives): the candidates to
+// fit fully next, by screening error, neither fitted nor failed, until
+// `wanted` finalists stand (counting the new ones); none when no finalist
+// failed. Per candidate: its screening RMSE, whether it was fitted fully,
+// and whether its screening or full fit failed.
+std::vector<size_t> ReplacementFinalists(const std::vector<double>& screening_rmse, const std::vector<char>& fitted,
+                                         const std::vector<char>& failed, size_t wanted);
+
 // Anytime (ReconstructOptions::deadline): clusters are taken largest first
 // (most texels: most of the picture), each only when the time left exceeds
 // the longest selection so far (`first_cluster_seconds`, a prediction, for
