@@ -92,38 +92,36 @@ void BilinearAt(const Atlas& atlas, const std::vector<float>& values, int stride
   if (t >= 0) std::copy(&values[size_t(t) * stride], &values[size_t(t + 1) * stride], out);
 }
 
-// The fits' view of the band's samples (FineWeightsInputs): the footprint
-// filter, and the indirect light of the coarse texel each falls in (same
-// photo) subtracted. Returns how many samples were dropped.
+// The fits' view of the band's samples: a band sample is kept only where
+// its coarse texel has a sample in the same photo (one the fits kept: the
+// footprint filter, ReconstructionJob::fit_max_unlit_share, judged the
+// coarse texel's pixel footprint, so the band inherits it without a probe
+// of its own, which would be most of its gather's cost), and loses that
+// sample's indirect light (FineWeightsInputs::indirect). Returns how many
+// samples were dropped.
 int64_t PrepareBandSamples(const GatherResult& coarse, const FineWeightsInputs& in, GatherResult* fine) {
   SampleSet& s = fine->samples;
+  const SampleSet& cs = coarse.samples;
   std::vector<char> keep(size_t(s.size()), 1);
-  if (fine->probes.size() == size_t(s.size()))
-    for (int64_t i = 0; i < s.size(); ++i)
-      keep[i] = fine->probes[i].unlit <= in.max_unlit_share && fine->probes[i].foreign <= in.max_foreign_share;
-  if (in.indirect) {
-    const SampleSet& cs = coarse.samples;
-    for (int t = 0; t < s.num_texels; ++t) {
-      if (s.texel_begin[t + 1] == s.texel_begin[t]) continue;
-      const int c = TexelAt(coarse.atlas, TexelCoordsIn(coarse.mesh, coarse.atlas, fine->atlas.texels[t]));
-      for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
-        int64_t j = -1;  // the coarse texel's sample in the same photo
-        if (c >= 0 && c < cs.num_texels)
-          for (int64_t q = cs.texel_begin[c]; q < cs.texel_begin[c + 1] && j < 0; ++q)
-            if (cs.image[q] == s.image[i]) j = q;
-        if (j < 0) {
-          keep[i] = 0;
-          continue;
-        }
-        for (int ch = 0; ch < 3; ++ch) s.y[ch][i] = std::max(0.0f, s.y[ch][i] - (*in.indirect)[ch][j]);
+  for (int t = 0; t < s.num_texels; ++t) {
+    if (s.texel_begin[t + 1] == s.texel_begin[t]) continue;
+    const int c = TexelAt(coarse.atlas, TexelCoordsIn(coarse.mesh, coarse.atlas, fine->atlas.texels[t]));
+    for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
+      int64_t j = -1;  // the coarse texel's sample in the same photo
+      if (c >= 0 && c < cs.num_texels)
+        for (int64_t q = cs.texel_begin[c]; q < cs.texel_begin[c + 1] && j < 0; ++q)
+          if (cs.image[q] == s.image[i]) j = q;
+      if (j < 0) {
+        keep[i] = 0;
+        continue;
       }
+      if (in.indirect)
+        for (int ch = 0; ch < 3; ++ch) s.y[ch][i] = std::max(0.0f, s.y[ch][i] - (*in.indirect)[ch][j]);
     }
   }
   const int64_t dropped = std::count(keep.begin(), keep.end(), char(0));
-  if (dropped > 0) {
-    s = KeepSamples(s, keep);
-    fine->probes.clear();
-  }
+  if (dropped > 0) s = KeepSamples(s, keep);
+  fine->probes.clear();
   return dropped;
 }
 
@@ -196,6 +194,7 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   // same surface (and they cost a third of a gather where they are dropped).
   if (!g->stats.footprint_kept) fine_options.footprint_subsamples = 0;
   else fine_options.footprint_min_tilt_deg = 0;
+  fine_options.probe_rays = 0;  // PrepareBandSamples: the coarse texels' filter
   const Mesh& coarse_mesh = g->mesh;
   const Atlas& coarse_atlas = g->atlas;
   fine_options.sample_texel = [&](const Texel& tx) {
@@ -239,8 +238,8 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width, "^2 within ",
                fo.band_rings, " texels of the region borders (border error ", r.border_excess,
                " x the interior's; ", std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf, " fine texels",
-               in.indirect ? Msg(", indirect light of the coarse texels removed, ", r.dropped, " samples dropped")
-                           : std::string(),
+               in.indirect ? ", indirect light of the coarse texels removed" : "", "; ", r.dropped,
+               " samples dropped: their coarse texel has none in that photo",
                "), held-out RMSE there ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
                r.kept ? "kept" : "not kept");
   if (!r.kept) return r;

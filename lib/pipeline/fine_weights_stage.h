@@ -46,7 +46,7 @@ struct FineWeightsReport {
   // Held-out error per texel at the coarse atlas's region borders over that
   // inside the regions (the stage is tried above kMinBorderExcess).
   double border_excess = 0;
-  int64_t dropped = 0;  // band samples dropped (FineWeightsInputs: the footprint filter, no coarse indirect)
+  int64_t dropped = 0;  // band samples dropped: their coarse texel has no sample in that photo
   std::string line;  // for the log
 };
 
@@ -58,13 +58,9 @@ struct FineWeightsInputs {
   bool indirect_unknown = false;
   // Per sample of the coarse gather (g's order) and channel, the indirect
   // light removed from it (indirect/interreflection.h); null: none. A band
-  // sample loses that of the coarse texel it falls in, in the same photo
-  // (indirect light changes little across a texel); one whose coarse texel
-  // has no sample in that photo is dropped.
+  // sample loses that of its coarse texel's sample in the same photo
+  // (indirect light changes little across a texel).
   const std::array<std::vector<float>, 3>* indirect = nullptr;
-  // The fits' footprint filter (ReconstructionJob::fit_max_unlit_share,
-  // fit_max_foreign_share; with GatherOptions::probe_rays).
-  double max_unlit_share = 1.0, max_foreign_share = 1.0;
 };
 
 // Replaces *g (atlas, mesh and samples; its stats stay the coarse gather's)

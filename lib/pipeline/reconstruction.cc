@@ -292,8 +292,6 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     timer.Start("fine weights");
     FineWeightsInputs in;
     in.normal_map = nr.kept;
-    in.max_unlit_share = job.fit_max_unlit_share;
-    in.max_foreign_share = job.fit_max_foreign_share;
     std::array<std::vector<float>, 3> indirect;
     if (interreflection.removed_share > 0) {
       in.indirect_unknown = mirrors.replaced > 0 || raw_y[0].size() != size_t(g.samples.size());
