@@ -140,8 +140,9 @@ std::vector<float> TrainingWeights(const Clustering& cl, const WeightModel& m, d
 }  // namespace
 
 void FineWeightsOptions::Check() const {
-  if (!(texel_footprint > 0)) throw Error(Msg("fine weights: texel_footprint must be > 0 (got ", texel_footprint, ")"));
-  if (band_rings < 1) throw Error(Msg("fine weights: band_rings must be >= 1 (got ", band_rings, ")"));
+  if (!(texel_footprint > 0))
+    throw Error(Msg("reconstruct: --fine-texel-footprint must be > 0 pixel footprints, got ", texel_footprint));
+  if (band_rings < 1) throw Error(Msg("reconstruct: --fine-band-rings must be >= 1, got ", band_rings));
 }
 
 FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOptions& gather,
