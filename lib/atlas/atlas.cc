@@ -253,4 +253,9 @@ Mesh MakeTrivialAtlasUVs(const Mesh& mesh, int resolution) {
   return out;
 }
 
+Vec2 TexelUv(const Mesh& mesh, const Texel& t) {
+  const Vec3i& f = mesh.face_uvs[size_t(t.prim)];
+  return (1 - t.b1 - t.b2) * mesh.texcoords[f[0]] + t.b1 * mesh.texcoords[f[1]] + t.b2 * mesh.texcoords[f[2]];
+}
+
 }  // namespace svbrdf

@@ -40,6 +40,11 @@ Atlas BuildAtlas(const Mesh& mesh, int width, int height, int dilate = 1, bool c
 // are not merged). Returns the mesh with texcoords/face_uvs filled.
 Mesh MakeTrivialAtlasUVs(const Mesh& mesh, int resolution);
 
+// Texture coordinates (in mesh's UVs) of the surface point texel t stands
+// for: its triangle and barycentrics. For a texel of any atlas of the same
+// triangles.
+Vec2 TexelUv(const Mesh& mesh, const Texel& t);
+
 // UV coordinates to continuous texel coordinates (texel centres at +0.5).
 inline Vec2 UvToTexel(const Vec2& uv, int width, int height) {
   return Vec2(uv.x() * width, (1.0 - uv.y()) * height);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "atlas/surface_neighbours.h"
+#include "cluster/weights.h"
 #include "core/error.h"
 #include "core/types.h"
 
@@ -117,15 +118,13 @@ void ConfidenceAndFill(const SampleSet& samples, const Atlas& atlas, const Recon
   for (int t = 0; t < nt; ++t) unreached[t] = !known[t];
   if (std::count(unreached.begin(), unreached.end(), 1) > 0) copy_from(NearestKnownTexels(atlas, known, unreached));
   est.texels_filled = est.texels_without_samples - int(std::count(known.begin(), known.end(), char(0)));
-  est.label.assign(nt, -1);
-  for (int t = 0; t < nt; ++t) {
-    double best = -1;
-    for (int k = 0; k < K; ++k) {
-      const double w = est.weights[(size_t(t) * K + k) * 3] + est.weights[(size_t(t) * K + k) * 3 + 1] +
-                       est.weights[(size_t(t) * K + k) * 3 + 2];
-      if (w > best) best = w, est.label[t] = k;
-    }
-  }
+  est.label = K > 0 ? FilledWeightLabels(est.weights, K) : std::vector<int>(nt, -1);
+}
+
+std::vector<int> FilledWeightLabels(const std::vector<float>& weights, int K) {
+  std::vector<int> label = LargestWeightLabels(weights, K);
+  for (int& l : label) l = std::max(l, 0);
+  return label;
 }
 
 }  // namespace svbrdf

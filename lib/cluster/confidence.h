@@ -10,6 +10,11 @@
 
 namespace svbrdf {
 
+// The label ConfidenceAndFill gives every texel of `weights` (texel-major
+// [t][k][c] for K materials): its largest weight (LargestWeightLabels), 0
+// where all are 0.
+std::vector<int> FilledWeightLabels(const std::vector<float>& weights, int K);
+
 // Needs est->weights (K = est->basis size or `num_basis`); sets num_texels,
 // confidence and label, and rewrites the weights of unconfident texels.
 // `neighbours`: the texels' surface neighbours (SurfaceNeighbours, as the

@@ -350,10 +350,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       if (!requested.empty() && !requested[t]) return void(r.reason = kNotRequested);
       if (no_border && !tx.interior) {
         // Distance (texels) from the texel centre to the clamped point it measures.
-        const Vec3i& fu = out.mesh.face_uvs[tx.prim];
-        const Vec2 uv = (1 - tx.b1 - tx.b2) * out.mesh.texcoords[fu[0]] + tx.b1 * out.mesh.texcoords[fu[1]] +
-                        tx.b2 * out.mesh.texcoords[fu[2]];
-        const Vec2 offset = UvToTexel(uv, atlas.width, atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5);
+        const Vec2 offset = UvToTexel(TexelUv(out.mesh, tx), atlas.width, atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5);
         if (offset.norm() > options.border_texel_max_offset) return void(r.reason = kBorderTexel);
       }
       const Vec3 x = tx.position, n = tx.normal;
@@ -459,7 +456,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       if (r.reason == kNotRequested) continue;  // GatherOptions::sample_texel
       ++st.candidates;
       switch (r.reason) {
-        case kNotRequested: break;
+        case kNotRequested: break;  // (skipped above: not a candidate)
         case kKept: ++kept; signal += r.signal; per_image[i].emplace_back(static_cast<int32_t>(t), r); break;
         case kBorderTexel: ++st.border_texel; break;
         case kOutsideImage: ++st.outside_image; break;

@@ -43,10 +43,7 @@ Clustering Fixed(const GatherResult& g, const ReconstructOptions& o, const Svbrd
 // of the surface point that `tx` (a texel of an atlas of the same
 // triangles) stands for.
 Vec2 TexelCoordsIn(const Mesh& mesh, const Atlas& atlas, const Texel& tx) {
-  const Vec3i& fu = mesh.face_uvs[size_t(tx.prim)];
-  const Vec2 uv = (1 - tx.b1 - tx.b2) * mesh.texcoords[fu[0]] + tx.b1 * mesh.texcoords[fu[1]] +
-                  tx.b2 * mesh.texcoords[fu[2]];
-  return UvToTexel(uv, atlas.width, atlas.height);
+  return UvToTexel(TexelUv(mesh, tx), atlas.width, atlas.height);
 }
 
 // The texel of `atlas` under continuous texel coordinates p, or the nearest
@@ -93,19 +90,18 @@ void BilinearAt(const Atlas& atlas, const std::vector<float>& values, int stride
 }
 
 // The fits' view of the band's samples: a band sample is kept only where
-// its coarse texel has a sample in the same photo (one the fits kept: the
-// footprint filter, ReconstructionJob::fit_max_unlit_share, judged the
-// coarse texel's pixel footprint, so the band inherits it without a probe
-// of its own, which would be most of its gather's cost), and loses that
-// sample's indirect light (FineWeightsInputs::indirect). Returns how many
-// samples were dropped.
-int64_t PrepareBandSamples(const GatherResult& coarse, const FineWeightsInputs& in, GatherResult* fine) {
+// its coarse texel (`coarse_of`, per fine texel; -1: none) has a sample in
+// the same photo (one the fits kept: the footprint filter,
+// ReconstructionJob::fit_max_unlit_share, judged the coarse texel's pixel
+// footprint, so the band inherits it without a probe of its own, which
+// would be most of its gather's cost), and loses that sample's indirect
+// light (FineWeightsInputs::raw_y). Returns how many samples were dropped.
+int64_t PrepareBandSamples(const SampleSet& cs, const FineWeightsInputs& in, const std::vector<int>& coarse_of,
+                           GatherResult* fine) {
   SampleSet& s = fine->samples;
-  const SampleSet& cs = coarse.samples;
   std::vector<char> keep(size_t(s.size()), 1);
   for (int t = 0; t < s.num_texels; ++t) {
-    if (s.texel_begin[t + 1] == s.texel_begin[t]) continue;
-    const int c = TexelAt(coarse.atlas, TexelCoordsIn(coarse.mesh, coarse.atlas, fine->atlas.texels[t]));
+    const int c = coarse_of[size_t(t)];
     for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i) {
       int64_t j = -1;  // the coarse texel's sample in the same photo
       if (c >= 0 && c < cs.num_texels)
@@ -115,8 +111,8 @@ int64_t PrepareBandSamples(const GatherResult& coarse, const FineWeightsInputs& 
         keep[i] = 0;
         continue;
       }
-      if (in.indirect)
-        for (int ch = 0; ch < 3; ++ch) s.y[ch][i] = std::max(0.0f, s.y[ch][i] - (*in.indirect)[ch][j]);
+      if (in.raw_y)  // the indirect light removed from the coarse sample: its raw value less what the fits saw
+        for (int ch = 0; ch < 3; ++ch) s.y[ch][i] = std::max(0.0f, s.y[ch][i] - ((*in.raw_y)[ch][j] - cs.y[ch][j]));
     }
   }
   const int64_t dropped = std::count(keep.begin(), keep.end(), char(0));
@@ -152,8 +148,8 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   FineWeightsReport r;
   r.coarse_size = g->atlas.width;
   if (in.normal_map || in.indirect_unknown || est->basis.empty() || o.SecondsLeft() <= 0) return r;
-  if (in.indirect && in.indirect->at(0).size() != size_t(g->samples.size()))
-    throw Error(Msg("internal: fine weights: ", in.indirect->at(0).size(), " indirect values for ", g->samples.size(),
+  if (in.raw_y && in.raw_y->at(0).size() != size_t(g->samples.size()))
+    throw Error(Msg("internal: fine weights: ", in.raw_y->at(0).size(), " raw values for ", g->samples.size(),
                     " samples"));
   const int K = int(est->basis.size());
   // The coarse atlas's held-out error per texel, at region borders (a
@@ -209,21 +205,21 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
     throw Error(Msg("fine weights: the fine atlas's mesh has ", fine.mesh.faces.size(), " triangles, the coarse one ",
                     coarse_mesh.faces.size()));
   r.tried = true;
-  r.dropped = PrepareBandSamples(*g, in, &fine);
 
-  // Per fine texel: its coarse texel coordinates, and the band's texels take
-  // the label of the coarse texel they fall in.
+  // Per fine texel: its coarse texel coordinates and texel, and the band's
+  // texels take the label of the coarse texel they fall in.
   const size_t nf = fine.atlas.texels.size();
   std::vector<Vec2> at_coarse(nf);
+  std::vector<int> coarse_of(nf, -1), fine_label(nf, -1);
   std::vector<char> in_band(nf, 0);
-  std::vector<int> fine_label(nf, -1);
   for (size_t t = 0; t < nf; ++t) {
     at_coarse[t] = TexelCoordsIn(coarse_mesh, coarse_atlas, fine.atlas.texels[t]);
-    const int c = TexelAt(coarse_atlas, at_coarse[t]);
+    const int c = coarse_of[t] = TexelAt(coarse_atlas, at_coarse[t]);
     if (c < 0) continue;
     fine_label[t] = coarse_label[size_t(c)];
     in_band[t] = !core[size_t(c)];
   }
+  r.dropped = PrepareBandSamples(g->samples, in, coarse_of, &fine);
   Clustering fine_cl = Fixed(fine, o, *est, fine_label);
   // Both on the band's held-out samples: the fine weights, and the coarse
   // ones (fitted on the same training photos) as a map lookup reads them.
@@ -239,7 +235,7 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width, "^2 within ",
                fo.band_rings, " texels of the region borders (border error ", r.border_excess,
                " x the interior's; ", std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf, " fine texels",
-               in.indirect ? ", indirect light of the coarse texels removed" : "", "; ", r.dropped,
+               in.raw_y ? ", indirect light of the coarse texels removed" : "", "; ", r.dropped,
                " samples dropped: their coarse texel has none in that photo",
                "), held-out RMSE there ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",
                r.kept ? "kept" : "not kept");
@@ -254,18 +250,12 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   for (size_t t = 0; t < nf; ++t) {
     if (in_band[t] && fine.samples.texel_begin[t + 1] > fine.samples.texel_begin[t]) continue;
     BilinearAt(coarse_atlas, est->weights, stride, at_coarse[t], &out.weights[t * stride]);
-    const int c = TexelAt(coarse_atlas, at_coarse[t]);
+    const int c = coarse_of[t];
     if (c < 0 || size_t(c) >= est->confidence.size() || size_t(c) >= est->residual.size()) continue;
     out.confidence[t] = est->confidence[size_t(c)];
     out.residual[t] = est->residual[size_t(c)];
   }
-  for (size_t t = 0; t < nf; ++t) {  // as ConfidenceAndFill labels them
-    double best = -1;
-    for (int k = 0; k < K; ++k) {
-      const float* w = &out.weights[t * stride + size_t(k) * 3];
-      if (w[0] + w[1] + w[2] > best) best = w[0] + w[1] + w[2], out.label[t] = k;
-    }
-  }
+  out.label = FilledWeightLabels(out.weights, K);  // as ConfidenceAndFill labels them
   out.texels_without_samples = est->texels_without_samples;
   out.texels_filled = est->texels_filled;
   *est = std::move(out);

@@ -56,11 +56,12 @@ struct FineWeightsInputs {
   // Indirect light was removed but not recorded per sample (no second
   // pass's raw values, or the mirror stage replaced materials): skipped.
   bool indirect_unknown = false;
-  // Per sample of the coarse gather (g's order) and channel, the indirect
-  // light removed from it (indirect/interreflection.h); null: none. A band
-  // sample loses that of its coarse texel's sample in the same photo
-  // (indirect light changes little across a texel).
-  const std::array<std::vector<float>, 3>* indirect = nullptr;
+  // Per sample of the coarse gather (g's order) and channel, its value
+  // before indirect light was removed (indirect/interreflection.h; g's
+  // values are after); null: none removed. A band sample loses the indirect
+  // light of its coarse texel's sample in the same photo (indirect light
+  // changes little across a texel).
+  const std::array<std::vector<float>, 3>* raw_y = nullptr;
 };
 
 // Replaces *g (atlas, mesh and samples; its stats stay the coarse gather's)

@@ -292,16 +292,9 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     timer.Start("fine weights");
     FineWeightsInputs in;
     in.normal_map = nr.kept;
-    std::array<std::vector<float>, 3> indirect;
     if (interreflection.removed_share > 0) {
       in.indirect_unknown = mirrors.replaced > 0 || raw_y[0].size() != size_t(g.samples.size());
-      if (!in.indirect_unknown) {
-        for (int c = 0; c < 3; ++c) {
-          indirect[c].resize(raw_y[c].size());
-          for (size_t i = 0; i < raw_y[c].size(); ++i) indirect[c][i] = raw_y[c][i] - g.samples.y[c][i];
-        }
-        in.indirect = &indirect;
-      }
+      if (!in.indirect_unknown) in.raw_y = &raw_y;
     }
     fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, job.fine, eo, in, &g, &est);
     if (!fine_weights.line.empty()) std::fprintf(stderr, "  %s\n", fine_weights.line.c_str());

@@ -366,10 +366,7 @@ TEST(Gather, ChartAtlasBorderTexelsTakeNoSamples) {
     for (int64_t i = 0; i < g.samples.size(); ++i) {
       const Texel& tx = g.atlas.texels[g.samples.texel[i]];
       if (tx.interior) continue;
-      const Vec3i& fu = g.mesh.face_uvs[tx.prim];
-      const Vec2 uv = (1 - tx.b1 - tx.b2) * g.mesh.texcoords[fu[0]] + tx.b1 * g.mesh.texcoords[fu[1]] +
-                      tx.b2 * g.mesh.texcoords[fu[2]];
-      n += (UvToTexel(uv, g.atlas.width, g.atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5)).norm() > 0.5;
+      n += (UvToTexel(TexelUv(g.mesh, tx), g.atlas.width, g.atlas.height) - Vec2(tx.x + 0.5, tx.y + 0.5)).norm() > 0.5;
     }
     return n;
   };
