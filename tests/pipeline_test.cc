@@ -75,6 +75,27 @@ BasisMaterial Material(const std::string& label, const std::vector<double>& para
 
 // Merging material `from` into `into`: labels moved, higher indices shifted
 // down, the larger cluster's material kept as the refit's start.
+// A stage entered twice ("fit + cluster" around the interreflection's
+// second pass) reports the sum of both entries, not the last one.
+TEST(ReportHtml, StageTimesSumAStageEnteredTwice) {
+  StageTimer timer;
+  timer.Start("fit");
+  timer.Start("gather");
+  timer.Start("fit");
+  volatile double sink = 0;
+  for (int i = 0; i < 2000000; ++i) sink = sink + std::sqrt(double(i));  // CPU time in the second entry
+  timer.Stop();
+  ASSERT_EQ(timer.stages().size(), 3u);
+  nlohmann::json summary;
+  AddStageTimes(timer, &summary);
+  const auto& st = timer.stages();
+  EXPECT_DOUBLE_EQ(summary["timings_s"]["fit"].get<double>(), st[0].seconds + st[2].seconds);
+  EXPECT_DOUBLE_EQ(summary["cpu_s"]["fit"].get<double>(), st[0].cpu_seconds + st[2].cpu_seconds);
+  EXPECT_GT(summary["timings_s"]["fit"].get<double>(), st[0].seconds);
+  EXPECT_DOUBLE_EQ(summary["timings_s"]["gather"].get<double>(), st[1].seconds);
+  EXPECT_EQ(summary["timings_s"].size(), 2u);
+}
+
 TEST(MergeStage, MergedEstimateRelabelsAndKeepsTheLargerClustersMaterial) {
   SvbrdfEstimate est;
   est.basis = {Material("lambert", {0.1, 0.1, 0.1}), Material("lambert", {0.2, 0.2, 0.2}),

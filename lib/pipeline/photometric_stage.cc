@@ -14,6 +14,7 @@
 #include "photometric/pixel_mesh.h"
 #include "photometric/ps_folder.h"
 #include "photometric/transfer.h"
+#include "pipeline/report_html.h"
 
 namespace svbrdf {
 
@@ -342,8 +343,7 @@ nlohmann::json RunPhotometricReconstruction(const ReconstructionJob& job, const 
     }
   }
   timer->Stop();
-  for (const auto& st : timer->stages()) summary["timings_s"][st.name] = st.seconds;
-  for (const auto& st : timer->stages()) summary["cpu_s"][st.name] = st.cpu_seconds;
+  AddStageTimes(*timer, &summary);
   summary["total_s"] = timer->Total();
   summary["peak_memory_mb"] = PeakMemoryMB();
   if (job.report) WriteFileAtomic(job.out_dir + "/report/summary.json", summary.dump(2) + "\n");

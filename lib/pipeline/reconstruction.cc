@@ -397,8 +397,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     }
   }
   timer.Stop();
-  for (const auto& st : timer.stages()) summary["timings_s"][st.name] = st.seconds;
-  for (const auto& st : timer.stages()) summary["cpu_s"][st.name] = st.cpu_seconds;
+  AddStageTimes(timer, &summary);
   summary["total_s"] = timer.Total();
   summary["peak_memory_mb"] = PeakMemoryMB();
   if (job.report) WriteFileAtomic(job.out_dir + "/report/summary.json", summary.dump(2));

@@ -130,4 +130,14 @@ void WriteReportHtml(const json& s, const std::string& dir) {
   page.Save((fs::path(dir) / "report.html").string());
 }
 
+void AddStageTimes(const StageTimer& timer, nlohmann::json* summary) {
+  nlohmann::json wall = nlohmann::json::object(), cpu = nlohmann::json::object();
+  for (const auto& st : timer.stages()) {
+    wall[st.name] = wall.value(st.name, 0.0) + st.seconds;
+    cpu[st.name] = cpu.value(st.name, 0.0) + st.cpu_seconds;
+  }
+  (*summary)["timings_s"] = wall;
+  (*summary)["cpu_s"] = cpu;
+}
+
 }  // namespace svbrdf

@@ -7,7 +7,14 @@
 #include <string>
 #include <vector>
 
+#include "core/progress.h"
+
 namespace svbrdf {
+
+// summary["timings_s"] and summary["cpu_s"]: wall and CPU seconds per stage
+// name, summed over the stage's entries (a stage entered twice, as
+// "fit + cluster" around the interreflection's second pass, counts both).
+void AddStageTimes(const StageTimer& timer, nlohmann::json* summary);
 
 // Warnings a reader should see, derived from the summary (weak signal,
 // many rejected samples, a poor held-out match, ...) plus summary["warnings"].
