@@ -33,6 +33,7 @@ Usage:
       [--cache /work/scratch/gen] [--runs /work/scratch/gen_runs] [--threads 2]
       [--mitsuba-python /work/scratch/mi/bin/python] [--seeds 1,3] [--allow-resample]
       [--relight "--bounces 2"] [-- extra reconstruct options]
+  /usr/bin/python3 scripts/bench_generalization.py --half extra|fresh [--extra-seeds A-B] ...   # seeds beyond the 24
   /usr/bin/python3 scripts/bench_generalization.py --half dev --report-only   # rewrite .md/.png from .json
 Run it niced on a shared machine: `nice -n 5 /usr/bin/python3 scripts/bench_generalization.py --half dev`.
 """
@@ -62,6 +63,20 @@ CEILING = ("the truth's own relight: Mitsuba renders the held-out views again fr
            "noise-free relight can score above it (by up to ~1.8 dB where the photos' Monte Carlo noise dominates, "
            "e.g. scans whose normals turn within a pixel); a gap below zero means the reconstruction is within "
            "render noise of the truth")
+
+
+# Halves beyond the frozen 24 seeds, drawn later by the same sampler, and
+# what they are for (the markdown says it under each).
+DRAWN_LATER = {
+    "extra": "Seeds %d-%d, drawn by the same sampler after the 24 were frozen: more development scenes, first "
+             "measured before any method was changed for them; not a replacement for the test half.",
+    "fresh": "Seeds %d-%d, drawn by the same sampler after seeds 25-36 had become development scenes, rendered and "
+             "measured once with the methods as they stood (no method changed for them): an unseen set like the "
+             "test half, which stays reserved for resolving issue 24. They are not for tuning: a method changed "
+             "for them turns them into development scenes.",
+}
+DEFAULT_SEEDS = {"extra": "25-36", "fresh": "37-48"}
+HALVES = ("dev", "test") + tuple(DRAWN_LATER)
 
 
 def load_manifest(path, allow_resample):
@@ -163,19 +178,17 @@ def write_markdown(doc, path):
          "`evaluate` (sRGB PSNR inside the masks)." % (doc["scene_count"], doc["frozen"], doc["sampler_sha256"][:12],
                                                        doc["split_rule"], doc["relight_options"]),
          "", "**Ceiling**: %s." % doc["ceiling"], ""]
-    for half in ("dev", "test", "extra"):
+    for half in HALVES:
         h = doc["halves"].get(half)
-        if half == "extra" and not h:
+        if half in DRAWN_LATER and not h:
             continue
         if not h:
             L += ["## %s half" % half, "", "Not measured.", ""]
             continue
         s = h["summary"]
-        if half == "extra":
-            L += ["## extra half (measured %s)" % h["env"]["date_utc"], "",
-                  "Seeds %d-%d, drawn by the same sampler after the 24 were frozen: more development scenes, "
-                  "first measured before any method was changed for them; not a replacement for the test half."
-                  % (min(r["seed"] for r in h["scenes"]), max(r["seed"] for r in h["scenes"])), ""]
+        if half in DRAWN_LATER:
+            L += ["## %s half (measured %s)" % (half, h["env"]["date_utc"]), "",
+                  DRAWN_LATER[half] % (min(r["seed"] for r in h["scenes"]), max(r["seed"] for r in h["scenes"])), ""]
         else:
             L += ["## %s half (measured %s)" % (half, h["env"]["date_utc"]), ""]
         L += [
@@ -225,7 +238,7 @@ def write_chart(doc, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    halves = [h for h in ("dev", "test", "extra") if doc["halves"].get(h)]
+    halves = [h for h in HALVES if doc["halves"].get(h)]
     fig, axes = plt.subplots(len(halves), 2, figsize=(12, 3.8 * len(halves)), squeeze=False,
                              gridspec_kw={"width_ratios": [2, 1]})
     for row, half in enumerate(halves):
@@ -265,10 +278,11 @@ def main():
         i = argv.index("--")
         argv, extra = argv[:i], argv[i + 1:]
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--half", choices=["dev", "test", "all", "extra"], required=True,
-                    help="extra: seeds beyond the frozen 24 (--extra-seeds), drawn by the same sampler; more "
-                         "development data, never a replacement for the test half")
-    ap.add_argument("--extra-seeds", default="25-36", help="with --half extra: seed range A-B (A > 24)")
+    ap.add_argument("--half", choices=["dev", "test", "all"] + list(DRAWN_LATER), required=True,
+                    help="extra, fresh: seeds beyond the frozen 24 (--extra-seeds), drawn by the same sampler; "
+                         "never a replacement for the test half (see DRAWN_LATER)")
+    ap.add_argument("--extra-seeds", help="with --half extra or fresh: seed range A-B (A > 24); default %s" %
+                    ", ".join("%s %s" % (h, r) for h, r in DEFAULT_SEEDS.items()))
     ap.add_argument("--cache", default="/work/scratch/gen", help="rendered captures, CACHE/<seed>/")
     ap.add_argument("--runs", default="/work/scratch/gen_runs", help="per-scene outputs, RUNS/<seed>/")
     ap.add_argument("--threads", type=int, default=2)
@@ -292,11 +306,11 @@ def main():
 
     manifest = load_manifest(a.manifest, a.allow_resample)
     halves = ["dev", "test"] if a.half == "all" else [a.half]
-    if a.half == "extra":
-        lo, hi = (int(x) for x in a.extra_seeds.split("-"))
+    if a.half in DRAWN_LATER:
+        lo, hi = (int(x) for x in (a.extra_seeds or DEFAULT_SEEDS[a.half]).split("-"))
         if lo <= max(s["seed"] for s in manifest["scenes"]) or hi < lo:
             sys.exit("bench_generalization: --extra-seeds %s must lie above the frozen seeds" % a.extra_seeds)
-        manifest["scenes"] += [{"seed": sd, "split": "extra", "params": mitsuba_scenes.draw_scene(sd)}
+        manifest["scenes"] += [{"seed": sd, "split": a.half, "params": mitsuba_scenes.draw_scene(sd)}
                                for sd in range(lo, hi + 1)]
     os.makedirs(a.runs, exist_ok=True)
     binary, sha = bench.snapshot_binary(a.binary, a.runs)

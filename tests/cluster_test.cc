@@ -1459,6 +1459,27 @@ TEST(FewPhotos, TrimmedDropIgnoresOneExplodingTexel) {
   EXPECT_NEAR(TrimmedDrop(before, before), 0.0, 1e-12);
 }
 
+// The texels TrimmedDrop leaves out, for tests that trim sums of their own
+// (the mirror stage): the worst 2 % of either, their union.
+TEST(FewPhotos, WorstOfEitherIsTheUnionOfBothWorstShares) {
+  const int n = 200;  // 2 %: 4 texels of each
+  std::vector<double> a(n, 1.0), b(n, 1.0);
+  for (int t : {3, 50, 51, 52}) a[t] = 10.0 + t;
+  for (int t : {52, 100, 150, 199}) b[t] = 10.0 + t;
+  const std::vector<char> worst = WorstOfEither(a, b);
+  ASSERT_EQ(worst.size(), size_t(n));
+  std::set<int> out;
+  for (int t = 0; t < n; ++t)
+    if (worst[t]) out.insert(t);
+  EXPECT_EQ(out, (std::set<int>{3, 50, 51, 52, 100, 150, 199}));
+  double sa = 0, sb = 0;
+  for (int t = 0; t < n; ++t)
+    if (!worst[t]) sa += a[t], sb += b[t];
+  EXPECT_NEAR(TrimmedDrop(a, b), 1.0 - sb / sa, 1e-12);  // the same texels as TrimmedDrop's
+  const std::vector<char> none = WorstOfEither(a, b, 0.0);
+  EXPECT_EQ(std::count(none.begin(), none.end(), char(1)), 0);
+}
+
 // Texels that only held-out photos saw, at a region border: the label fill
 // (training samples only) splits them between the two sides; before the
 // final weights their own samples decide.

@@ -138,6 +138,10 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
   c->add_flag("--mirrors,!--no-mirrors", job->mirror.enabled,
               "where interreflection was traced: try dark basis materials as mirrors (smooth conductors), fitted to\n"
               "what their mirror direction sees, kept by held-out error (on by default, --no-mirrors: off)");
+  c->add_option("--mirror-lookup-rays", job->mirror.lookup_rays,
+                "mirror stage: n x n rays through each pixel of a sample's photo lookup, each traced in its own mirror\n"
+                "direction (the reflection integrated over the pixels); 0 (default): one direction per pixel, about\n"
+                "its mean normal");
   c->add_flag("--fine-weights,!--no-fine-weights", job->fine_weights,
               "solve the mixing weights again near the region borders on a finer atlas (a texel of --fine-texel-footprint,\n"
               "at most twice the side) when the borders hold at least twice the held-out error per texel of the regions'\n"

@@ -76,20 +76,25 @@ double ImprovementZ(const std::vector<double>& a, const std::vector<double>& b) 
   return std::max(PairedZ(a, b), BoundedPairedZ(a, b));
 }
 
-double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim) {
+std::vector<char> WorstOfEither(const std::vector<double>& a, const std::vector<double>& b, double trim) {
   const size_t n = std::min(a.size(), b.size()), cut = size_t(trim * double(n));
-  std::vector<char> drop(n, 0);
+  std::vector<char> worst(n, 0);
   for (const std::vector<double>* v : {&a, &b}) {
     if (cut == 0) break;
     std::vector<size_t> order(n);
     for (size_t t = 0; t < n; ++t) order[t] = t;
     std::nth_element(order.begin(), order.begin() + (cut - 1), order.end(),
                      [v](size_t x, size_t y) { return (*v)[x] > (*v)[y]; });
-    for (size_t j = 0; j < cut; ++j) drop[order[j]] = 1;
+    for (size_t j = 0; j < cut; ++j) worst[order[j]] = 1;
   }
+  return worst;
+}
+
+double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim) {
+  const std::vector<char> worst = WorstOfEither(a, b, trim);
   double sa = 0, sb = 0;
-  for (size_t t = 0; t < n; ++t)
-    if (!drop[t]) sa += a[t], sb += b[t];
+  for (size_t t = 0; t < worst.size(); ++t)
+    if (!worst[t]) sa += a[t], sb += b[t];
   return 1.0 - sb / std::max(1e-300, sa);
 }
 

@@ -68,5 +68,8 @@ double ImprovementZ(const std::vector<double>& a, const std::vector<double>& b);
 // held-out error outweighed the gain of all the others, and the right
 // 3-material split read as far worse.
 double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim = 0.02);
+// The texels TrimmedDrop leaves out (1): the largest `trim` share of a and
+// that of b (their union), over the first min(a.size(), b.size()) texels.
+std::vector<char> WorstOfEither(const std::vector<double>& a, const std::vector<double>& b, double trim = 0.02);
 
 }  // namespace svbrdf

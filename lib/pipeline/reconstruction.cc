@@ -132,6 +132,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   // after the gathering.
   job.estimate.Check();
   job.fine.Check();
+  job.mirror.Check();
   if (!(job.time_budget_s >= 0 && std::isfinite(job.time_budget_s)))
     throw Error(Msg("reconstruct: --time-budget must be >= 0 seconds, got ", job.time_budget_s));
   if (!(job.time_spent_before_s >= 0 && std::isfinite(job.time_spent_before_s)))
