@@ -214,8 +214,8 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
     // TrimmedDrop): a mirror's prediction is heavy-tailed where its
     // reflection holds an edge (a reflected silhouette or highlight a
     // fraction of a pixel off), and those few texels must not outweigh the
-    // others (the torus' aluminium: lower error on most texels, z = 60, yet
-    // a higher RMSE over all).
+    // others (a Mitsuba bull's polished chromium: better on most texels,
+    // z = 15.9, yet a higher RMSE over all; docs/measurements.md).
     const std::vector<char> worst = WorstOfEither(sse_fit, sse_mirror);
     double sum_fit = 0, sum_mirror = 0, n = 0;
     for (size_t t = 0; t < worst.size(); ++t)
@@ -225,8 +225,8 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
     const double z = ImprovementZ(sse_fit, sse_mirror);
     const bool take = rmse_fit - rmse_mirror > margin && z >= eo.model_min_z;
     rep.lines.push_back(Msg("m", k, " (", est->basis[k].spec.Label(), ", ", texels.size(), " texels): held-out RMSE ",
-                            rmse_fit, " as fitted, ", rmse_mirror, " as a mirror (without the worst 2 % of texels) of F0 (", f0[0], ", ", f0[1], ", ",
-                            f0[2], "), z = ", z, take ? ": a mirror" : ": kept"));
+                            rmse_fit, " as fitted, ", rmse_mirror, " as a mirror (without the worst 2 % of texels) of F0 (",
+                            f0[0], ", ", f0[1], ", ", f0[2], "), z = ", z, take ? ": a mirror" : ": kept"));
     if (!take) continue;
     BasisMaterial mirror;
     mirror.name = est->basis[k].name;

@@ -377,13 +377,21 @@ TEST(Reconstruct, MetalIsRecognisedAsConductor) {
   EXPECT_GE(r.psnr_mean, 55.0);
 }
 
-// The interreflection's second pass (pipeline/interreflection_stage.h): a
-// copper torus beside a diffuse one, rendered with two bounces. Inside the
-// ring the copper shows a blurred image of the opposite side, which the
-// first (Lambertian-receiver) pass leaves in its samples; without the
-// second pass the fits gave it a third material (measured on this capture:
-// 3 materials, 32.18 dB without; 2, 32.24 dB with, relit with 2 bounces).
-TEST(Reconstruct, GlossySelfReflectionIsNotTakenForAMaterial) {
+// A reconstruction of DIR/capture into DIR/NAME without progress or report.
+ReconstructionJob QuietJob(const std::string& dir, const std::string& name) {
+  ReconstructionJob job;
+  job.scene_path = dir + "/capture/scene.json";
+  job.out_dir = dir + "/" + name;
+  job.gather.progress = false;
+  job.estimate.progress = false;
+  job.interreflection.progress = false;
+  job.report = false;
+  return job;
+}
+
+// A torus, half `metal_model` (a reflecting metal), half a lit diffuse paint,
+// rendered with two bounces: the metal shows the other side of the ring.
+SynthOptions MetalBesidePaintTorus(const std::string& metal_model, int bounce_samples) {
   SynthOptions o = SynthPreset("tiny");
   o.object = "torus";
   o.detail = 64;
@@ -391,25 +399,30 @@ TEST(Reconstruct, GlossySelfReflectionIsNotTakenForAMaterial) {
   o.num_heldout = 4;
   o.seed = 5;
   o.bounces = 2;
-  o.bounce_samples = 16;
+  o.bounce_samples = bounce_samples;
   o.material.num_materials = 2;
-  o.material.models = {"conductor-ggx", "lambert"};
+  o.material.models = {metal_model, "lambert"};
   o.material.params.resize(2);
+  o.material.params[1].values = {{"rd_r", 0.6}, {"rd_g", 0.5}, {"rd_b", 0.4}};
+  return o;
+}
+
+// The interreflection's second pass (pipeline/interreflection_stage.h): a
+// copper torus beside a diffuse one, rendered with two bounces. Inside the
+// ring the copper shows a blurred image of the opposite side, which the
+// first (Lambertian-receiver) pass leaves in its samples; without the
+// second pass the fits gave it a third material (measured on this capture:
+// 3 materials, 32.18 dB without; 2, 32.24 dB with, relit with 2 bounces).
+TEST(Reconstruct, GlossySelfReflectionIsNotTakenForAMaterial) {
+  SynthOptions o = MetalBesidePaintTorus("conductor-ggx", 16);
   o.material.params[0].metal = "copper";
   o.material.params[0].values = {{"roughness", 0.15}};
-  o.material.params[1].values = {{"rd_r", 0.6}, {"rd_g", 0.5}, {"rd_b", 0.4}};
   const std::string dir = Scratch("glossy_torus");
   Synthesize(o, dir + "/capture");
   const Scene held = LoadScene(dir + "/capture/heldout/scene.json");
   auto run = [&](bool second_pass, const std::string& name, nlohmann::json* summary) {
-    ReconstructionJob job;
-    job.scene_path = dir + "/capture/scene.json";
-    job.out_dir = dir + "/" + name;
-    job.gather.progress = false;
-    job.estimate.progress = false;
-    job.interreflection.progress = false;
+    ReconstructionJob job = QuietJob(dir, name);
     job.interreflection.refit = second_pass;
-    job.report = false;
     *summary = RunReconstruction(job);
     const Material m = LoadMaterial(job.out_dir);
     RelightOptions rl;
@@ -439,30 +452,13 @@ TEST(Reconstruct, GlossySelfReflectionIsNotTakenForAMaterial) {
 // 0.95 / 0.73 / 0.52, not taken), while on a Mitsuba torus n = 2 came
 // closer to the truth: the comparison stays here to tell when that changes.
 TEST(Reconstruct, PolishedMetalIsRecognisedByWhatItReflects) {
-  SynthOptions o = SynthPreset("tiny");
-  o.object = "torus";
-  o.detail = 64;
-  o.num_images = 24;
-  o.num_heldout = 4;
-  o.seed = 5;
-  o.bounces = 2;
-  o.bounce_samples = 8;
-  o.material.num_materials = 2;
-  o.material.models = {"mirror", "lambert"};
-  o.material.params.resize(2);
+  SynthOptions o = MetalBesidePaintTorus("mirror", 8);
   o.material.params[0].values = {{"f0_r", 0.9}, {"f0_g", 0.7}, {"f0_b", 0.5}};
-  o.material.params[1].values = {{"rd_r", 0.6}, {"rd_g", 0.5}, {"rd_b", 0.4}};
   const std::string dir = Scratch("polished_torus");
   Synthesize(o, dir + "/capture");
   auto run = [&](int lookup_rays, const std::string& name) {
-    ReconstructionJob job;
-    job.scene_path = dir + "/capture/scene.json";
-    job.out_dir = dir + "/" + name;
-    job.gather.progress = false;
-    job.estimate.progress = false;
-    job.interreflection.progress = false;
+    ReconstructionJob job = QuietJob(dir, name);
     job.mirror.lookup_rays = lookup_rays;
-    job.report = false;
     const nlohmann::json summary = RunReconstruction(job);
     const Material m = LoadMaterial(job.out_dir);
     double f0_error = 1.0;  // of the mirror, largest over the channels
