@@ -289,11 +289,18 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       try {
         const FitResult r = FitModel(spec, samples, c.train, fo,
                                      spec == cl.basis()[k].spec ? cl.basis()[k].params : std::vector<double>{});
-        std::vector<double> e = SampleErrors(spec, r.params, samples, c.hold, c.display);
-        c.tried[j] = {spec, r, TrimmedRmse(e), std::move(e)};
+        Tried& t = c.tried[j];
+        t = Tried{};
+        t.spec = spec;
+        t.fit = r;
+        t.errors = SampleErrors(spec, r.params, samples, c.hold, c.display);
+        t.rmse = TrimmedRmse(t.errors);
       } catch (const Error& e) {
-        c.tried[j] = {spec, FitResult{}, kFailed, {}};
-        c.tried[j].failed = e.what();
+        Tried& t = c.tried[j];
+        t = Tried{};
+        t.spec = spec;
+        t.rmse = kFailed;
+        t.failed = e.what();
       }
     });
     // The finalists are compared on out-of-fold errors over all the
