@@ -247,7 +247,9 @@ TEST(ChartAtlas, ScanGetsValidUvsAndEveryTriangleIsCovered) {
       EXPECT_GE(c.mesh.texcoords[t[k]].minCoeff(), 0.0);
       EXPECT_LE(c.mesh.texcoords[t[k]].maxCoeff(), 1.0);
     }
-    if (Area3(c.mesh, f) > 0) EXPECT_GE(UvArea(c.mesh, f, side), -1e-9) << "face " << f << " flipped";
+    if (Area3(c.mesh, f) > 0) {
+      EXPECT_GE(UvArea(c.mesh, f, side), -1e-9) << "face " << f << " flipped";
+    }
     const Vec2 uv = (c.mesh.texcoords[t[0]] + c.mesh.texcoords[t[1]] + c.mesh.texcoords[t[2]]) / 3.0;
     const Vec2 p = UvToTexel(uv, side, side);
     const int x0 = int(std::floor(p.x() - 0.5)), y0 = int(std::floor(p.y() - 0.5));

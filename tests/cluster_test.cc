@@ -1304,7 +1304,9 @@ TEST(Adjacency, SeamTexelsAreSurfaceNeighbours) {
     const int left = y * w, right = y * w + w - 1;
     EXPECT_TRUE(has(left, right) && has(right, left)) << "row " << y;  // across the seam, both ways
     EXPECT_FALSE(has(left, y * w + w / 2)) << "row " << y;            // the far side is not a neighbour
-    if (y > 0) EXPECT_TRUE(has(left, (y - 1) * w + w - 1));           // the seam's diagonal
+    if (y > 0) {
+      EXPECT_TRUE(has(left, (y - 1) * w + w - 1));  // the seam's diagonal
+    }
   }
   EXPECT_EQ(nb[2 * w + 5].size(), 8u);  // interior texels: their 8 grid neighbours only
   EXPECT_EQ(CountSeamTexels(a, nb), 2 * h);
@@ -1516,8 +1518,11 @@ TEST(FewPhotos, TexelsSeenOnlyByHeldOutPhotosAreLabelledByTheirSamples) {
   cl.LabelUnseenByAllSamples();
   // Texel 50 may follow texel 49 (24 samples of material 0 outweigh its own
   // few in the half-weighted neighbour pooling, as in Assign).
-  for (int t = 0; t < n; ++t)
-    if (t != 50) EXPECT_EQ(cl.assign()[t], label[t]) << "texel " << t;
+  for (int t = 0; t < n; ++t) {
+    if (t != 50) {
+      EXPECT_EQ(cl.assign()[t], label[t]) << "texel " << t;
+    }
+  }
 }
 
 using test_meshes::TwoChartStrip;  // tests/test_meshes.h

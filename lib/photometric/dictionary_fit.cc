@@ -104,8 +104,8 @@ class GreyBasis {
   struct Lobe {
     Family family = Family::kLambert;
     double rd = 1;
-    brdf::OrenNayar<double> on;
-    brdf::CookTorrance<double> ct;
+    brdf::OrenNayar<double> on{};   // value-initialised: a lobe of another family leaves them unset
+    brdf::CookTorrance<double> ct{};
   };
   const std::vector<BasisMaterial>& basis_;
   double diffuse_eta_ = 1.0;

@@ -231,7 +231,7 @@ ImportPsResult ImportPs(const ImportPsOptions& o) {
             break;
           }
       }
-    char stem[16];
+    char stem[24];  // "%03ld" of a long: up to 20 characters
     std::snprintf(stem, sizeof stem, "%03ld", i + 1);
     dequantized[i] = photo.bits == 8 && o.quantization == "floor";
     const fs::path stored = sub / "images" / (std::string(stem) + stored_ext(int(i)));
