@@ -349,13 +349,11 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
           for (int dx = 0; dx < 2; ++dx)
             if (!(mask.at(x0 + dx, y0 + dy, 0) > 0)) return void(r.reason = kOutsideMask);  // NaN: outside
       }
+      const double tolerance = LookupPatchTolerance(dist, cam.fx(), n.dot(to_eye));  // of the footprint measures
       // The normal the pixel value belongs to (see GatherOptions::footprint_rays).
       Vec3 ns = n;
       double foreshortening = 1.0;
       if (footprint_rays > 0) {
-        // A pixel spans dist / f metres head-on, dist / (f cos) along the surface;
-        // the lookup reaches a pixel away: anything within 3 such lengths is this patch.
-        const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
         Vec3 mean;
         if (!FootprintNormal(tracer, cam, world_from_cam, eye, x, tolerance, px.x(), px.y(), footprint_rays,
                              options.max_foreign_share, &mean))
@@ -365,7 +363,6 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
         if (ns.dot(to_eye) < options.min_cos) return void(r.reason = kBackFacing);
       }
       if (options.footprint_subsamples > 0) {
-        const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
         if (!FootprintSubsamples(tracer, cam, world_from_cam, eye, x, Frame::FromNormalTangent(ns, tx.tangent),
                                  tolerance, px.x(), px.y(), options.footprint_subsamples, r.footprint))
           return void(r.reason = kOccluded);
@@ -414,7 +411,6 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       if (contrast > options.max_lookup_contrast && footprint_turn >= min_contrast_turn)
         return void(r.reason = kContrast);
       if (options.probe_rays > 0) {
-        const double tolerance = 3.0 * dist / cam.fx() / std::max(n.dot(to_eye), 0.05);
         r.probe = ProbeFootprint(tracer, cam, world_from_cam, eye, light, x, n, tolerance, eps, px.x(), px.y(),
                                  options.probe_rays);
       }

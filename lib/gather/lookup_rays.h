@@ -3,6 +3,7 @@
 // (pipeline/mirror_stage.cc), which integrates a mirror's reflection over
 // the same footprint.
 #pragma once
+#include <algorithm>
 #include <cmath>
 
 #include "camera/camera.h"
@@ -16,6 +17,15 @@ namespace svbrdf {
 // for each, w = the lookup's weight of the ray's pixel / n^2 (they sum to 1),
 // hit = whether the ray meets the mesh (then at h), pixel = dx + 2 dy of
 // the ray's pixel in the lookup (0..3; pixels of weight 0 are skipped).
+// How far from a sample's surface point a lookup ray may meet the mesh and
+// still be on the same patch: a pixel spans dist / f metres head-on,
+// dist / (f cos) along the surface (cos of the view angle, floored at
+// 0.05), and the lookup reaches a pixel away; anything within 3 such
+// lengths is this patch, anything farther another surface.
+inline double LookupPatchTolerance(double dist, double focal_px, double cos_view) {
+  return 3.0 * dist / focal_px / std::max(cos_view, 0.05);
+}
+
 template <class Visit>
 void ForEachLookupRay(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                       double px, double py, int n, Visit&& visit) {

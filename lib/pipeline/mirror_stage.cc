@@ -130,15 +130,13 @@ MirrorReport FitMirrors(const Scene& scene, const GatherResult& g, const Reconst
           l += weight * lj;
           l_s5 += weight * std::pow(1 - std::min(mu, 1.0), 5) * lj;
         };
-        const ImageEntry& entry = scene.images[s.image[i]];
-        const Camera& cam = scene.CameraById(entry.camera);
-        const Vec3 xc = entry.cam_from_world * tx.position;
         double on_patch = 0;  // lookup weight of the rays that meet this patch
+        const ImageEntry& entry = scene.images[s.image[i]];
+        const Vec3 xc = entry.cam_from_world * tx.position;
         if (o.lookup_rays > 0 && xc.z() > 1e-9) {
+          const Camera& cam = scene.CameraById(entry.camera);
           const Vec2 px = cam.Project(xc);
-          // As the gather's footprint: within 3 pixel lengths along the surface is this patch.
-          const double tolerance =
-              3.0 * (lp.eye() - tx.position).norm() / cam.fx() / std::max(tx.normal.dot(wo), 0.05);
+          const double tolerance = LookupPatchTolerance((lp.eye() - tx.position).norm(), cam.fx(), tx.normal.dot(wo));
           uint64_t stream = 0;
           ForEachLookupRay(tracer, cam, entry.cam_from_world.Inverse(), lp.eye(), px.x(), px.y(), o.lookup_rays,
                            [&](double w, bool hit, const Hit& h, int) {
