@@ -110,15 +110,19 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
 
 }  // namespace
 
-bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends) {
+std::string BoundParam(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends) {
   const std::vector<ParamInfo> info = spec.Params();
   for (size_t i = 0; i < info.size() && i < params.size(); ++i) {
     if (!metallic_ends && info[i].name == "metallic") continue;
     const double tol = 1e-3 * (info[i].upper - info[i].lower);
-    if (params[i] >= info[i].upper - tol) return true;
-    if (!info[i].linear && params[i] <= info[i].lower + tol) return true;
+    if (params[i] >= info[i].upper - tol || (!info[i].linear && params[i] <= info[i].lower + tol))
+      return Msg(info[i].name, " ", params[i]);
   }
-  return false;
+  return "";
+}
+
+bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends) {
+  return !BoundParam(spec, params, metallic_ends).empty();
 }
 
 std::vector<size_t> ReplacementFinalists(const std::vector<double>& screening_rmse, const std::vector<char>& fitted,
@@ -140,6 +144,12 @@ std::vector<size_t> ReplacementFinalists(const std::vector<double>& screening_rm
 }
 
 namespace {
+
+// " at a bound (name value)" for the log, or nothing.
+std::string AtBoundNote(const ModelSpec& spec, const std::vector<double>& params) {
+  const std::string p = BoundParam(spec, params);
+  return p.empty() ? "" : " at a bound (" + p + ")";
+}
 
 // ChooseModel's order of preference among candidates that are not clearly
 // worse: not at a bound, fewer parameters, the incumbent, lower RMSE.
@@ -404,10 +414,10 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       for (size_t j : usable)
         if (int(j) != chosen)
           others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, " / ", tried[j].held_rmse,
-                        FitAtBound(tried[j].spec, tried[j].fit.params) ? " at a bound" : "");
+                        AtBoundNote(tried[j].spec, tried[j].fit.params));
       log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (out-of-fold RMSE ", tried[chosen].rmse,
-              ", held-out ", tried[chosen].held_rmse,
-              FitAtBound(tried[chosen].spec, tried[chosen].fit.params) ? " at a bound" : "", "; finalists", others, ")"));
+              ", held-out ", tried[chosen].held_rmse, AtBoundNote(tried[chosen].spec, tried[chosen].fit.params),
+              "; finalists", others, ")"));
       cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
     }
     const double per_cluster =

@@ -40,6 +40,9 @@ struct ModelCandidate {
 // off, not a bound the data push against. `metallic_ends` false: a metallic
 // of 0 or 1 (a dielectric, a metal) does not count either.
 bool FitAtBound(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends = true);
+// The first parameter FitAtBound finds at a bound, as "name value" for the
+// log; empty when none is.
+std::string BoundParam(const ModelSpec& spec, const std::vector<double>& params, bool metallic_ends = true);
 
 // The choice among fully fitted candidates. A candidate is "clearly worse"
 // than the one with the lowest RMSE when its RMSE is higher by `margin` and
