@@ -1599,6 +1599,25 @@ TEST(Cluster, PartitionAgreementIgnoresTheNumbering) {
   EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, some), 1.0);
 }
 
+// The control split's test (split_search.cc): a refined control that kept
+// its geometric halves is a control; one that left them is not.
+TEST(Cluster, SplitKeptShareMeasuresWhatARefinementKeptOfItsHalves) {
+  const std::vector<int> parent{0, 0, 0, 0, 0, 0, 0, 0, 1, 1};
+  const std::vector<int> start{0, 0, 0, 0, 2, 2, 2, 2, 1, 1};  // cluster 0 halved: new label 2
+  const std::vector<char> all(10, 1);
+  EXPECT_DOUBLE_EQ(SplitKeptShare(parent, 0, start, start, all), 1.0);
+  // Relabelled only: still the same halves.
+  EXPECT_DOUBLE_EQ(SplitKeptShare(parent, 0, start, {2, 2, 2, 2, 0, 0, 0, 0, 1, 1}, all), 1.0);
+  // Refined across the halves (every other texel): half kept, as by chance.
+  EXPECT_DOUBLE_EQ(SplitKeptShare(parent, 0, start, {0, 2, 0, 2, 0, 2, 0, 2, 1, 1}, all), 0.5);
+  // Texels moved to another cluster are not kept; cluster 1's own texels do not count.
+  EXPECT_DOUBLE_EQ(SplitKeptShare(parent, 0, start, {0, 0, 1, 1, 2, 2, 2, 2, 0, 0}, all), 6.0 / 8);
+  // Unusable texels do not count.
+  std::vector<char> some = all;
+  some[2] = some[3] = 0;
+  EXPECT_DOUBLE_EQ(SplitKeptShare(parent, 0, start, {0, 0, 1, 1, 2, 2, 2, 2, 0, 0}, some), 1.0);
+}
+
 // Model selection's display-scale errors (stats.h DisplayScale): a sample
 // and its prediction become the photo's pixel values (x the image's scale),
 // clamped to [0, 1] and sRGB-encoded, as `svbrdf evaluate` scores a photo.

@@ -217,6 +217,13 @@ double PartitionAgreement(const std::vector<int>& a, const std::vector<int>& b, 
   return total > 0 ? double(agree) / total : 1.0;
 }
 
+double SplitKeptShare(const std::vector<int>& parent, int k, const std::vector<int>& start,
+                      const std::vector<int>& refined, const std::vector<char>& usable) {
+  std::vector<char> in_k(parent.size(), 0);
+  for (size_t t = 0; t < in_k.size() && t < usable.size(); ++t) in_k[t] = usable[t] && parent[t] == k;
+  return PartitionAgreement(start, refined, in_k);
+}
+
 double SplitCoherence(const Clustering& cl, const std::vector<int>& side) {
   const std::vector<int>& label = cl.assign();
   std::vector<double> count;

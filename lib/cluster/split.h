@@ -86,6 +86,14 @@ double SplitCoherence(const Clustering& cl, const std::vector<int>& side);
 // 1 = the same partition under another numbering.
 double PartitionAgreement(const std::vector<int>& a, const std::vector<int>& b, const std::vector<char>& usable);
 
+// How much of its start a refined split kept: PartitionAgreement of
+// `start` (the partition right after the split) and `refined` over the
+// usable texels that were in cluster k of `parent`. 1: the refinement kept
+// the split's halves; ~0.5 for a two-way split: it left them (as by chance);
+// texels the refinement moved to other clusters count as not kept.
+double SplitKeptShare(const std::vector<int>& parent, int k, const std::vector<int>& start,
+                      const std::vector<int>& refined, const std::vector<char>& usable);
+
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`. `first_step_seconds`:

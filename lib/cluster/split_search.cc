@@ -337,18 +337,14 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // that says nothing about the material: its refinement found regions
       // of its own, which is no evidence of model error either. The
       // candidate then stands on its own test, and pruning removes what it
-      // adds beyond the materials. Seen on Mitsuba scene 57 (five
-      // materials): the look-ahead's split 50 % below its parent lost to a
-      // control refined away from its start (half of it kept, as by
-      // chance), and the search kept 1 material; the refined controls of
-      // the other scenes measured then kept 52-62 % of their start
-      // (docs/measurements.md, "Seeds 49-60").
+      // adds beyond the materials. Seen on a Mitsuba scene of five
+      // materials: the look-ahead's split, far below its parent, lost to a
+      // control whose refinement kept its halves no better than chance, and
+      // the search kept 1 material; no refined control in the scenes
+      // measured then kept its halves (docs/measurements.md, "Seeds 49-60").
       double kept_start = 1.0;
-      if (refine_control || !unrefined_note.empty()) {
-        std::vector<char> in_k(cl.usable().size(), 0);
-        for (size_t t = 0; t < in_k.size(); ++t) in_k[t] = cl.usable()[t] && parent.assign[t] == k;
-        kept_start = PartitionAgreement(control_start, control_assign, in_k);
-      }
+      if (refine_control || !unrefined_note.empty())
+        kept_start = SplitKeptShare(parent.assign, k, control_start, control_assign, cl.usable());
       const bool left_start = !passes && !same && kept_start < kControlKeptStart;
       if (left_start) passes = true;
       control_note += Msg("; vs control split", confounded ? Msg(" (refined: it halves ", 100 * confounding,
