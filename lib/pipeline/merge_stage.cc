@@ -206,7 +206,10 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
                                " refitted: held-out RMSE apart ", apart.heldout_rmse, ", merged ", merged.heldout_rmse,
                                confirmed ? ": merged" : ": kept apart"));
     std::fprintf(stderr, "  merge: %s\n", report.lines.back().c_str());
-    if (!confirmed) break;
+    if (!confirmed) {
+      if (report.merges == 0) report.refit_apart = std::move(apart), report.has_refit_apart = true;
+      break;
+    }
     if (follow) FollowMerge(pairs[best].first, pairs[best].second, merged, follow);
     *est = merged;
     apart = std::move(merged);

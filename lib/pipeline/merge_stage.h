@@ -37,6 +37,11 @@ struct MergeOptions {
 struct MergeReport {
   int merges = 0;
   std::vector<std::string> lines;  // one per tested pair: held-out RMSE apart and merged
+  // When a pair was refitted but not merged: the estimate refitted apart,
+  // which is the first material round's refit (the same samples in the same
+  // refined frames, the same materials), so that round need not fit it again.
+  bool has_refit_apart = false;
+  SvbrdfEstimate refit_apart;
 };
 
 // One pair's test on the samples of its two clusters' texels, as the final

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <utility>
 
 #include "cluster/holdout.h"
@@ -239,9 +240,11 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
     }
   }
   if (nr.kept) start = nr.tilt;
+  std::optional<SvbrdfEstimate> first_refit;  // the first round's refit, made by the merge test
   if (nr.kept && merge.enabled) {
     MergeReport m = MergeSameMaterials(g, eo, nr, merge, cluster_seconds, timer, &est, &nr);
     if (m.merges > 0) check_of_output = PhotoCheck();
+    if (m.has_refit_apart) first_refit = std::move(m.refit_apart), m.has_refit_apart = false;
     if (merged) *merged = std::move(m);
   }
   for (int round = 0; round < material_rounds && !start.empty(); ++round) {
@@ -250,7 +253,13 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
       break;
     }
     timer->Start("refit materials (refined normals)");
-    SvbrdfEstimate est2 = RefitSvbrdf(ReorientSamples(g.samples, start), g.atlas, eo, est);
+    // With no merge, the merge test's refit apart is this round's refit
+    // (start is the kept refinement's tilts, the materials unchanged).
+    const bool reuse = round == 0 && first_refit.has_value();
+    if (reuse) std::fprintf(stderr, "  material round 1: the merge test's refit of the materials apart reused\n");
+    SvbrdfEstimate est2 =
+        reuse ? std::move(*first_refit) : RefitSvbrdf(ReorientSamples(g.samples, start), g.atlas, eo, est);
+    first_refit.reset();
     if (no.polish_basis && nr.kept) {
       timer->Start("polish basis with the tilts");
       for (const BasisPolishReport& r :
