@@ -1599,6 +1599,16 @@ TEST(Cluster, PartitionAgreementIgnoresTheNumbering) {
   EXPECT_DOUBLE_EQ(PartitionAgreement(a, {2, 2, 0, 0, 1, 1, 0, 2}, some), 1.0);
 }
 
+// The fine-weights stage's gate compares medians of per-texel errors
+// (a few interior outliers must not hide the borders).
+TEST(Stats, MedianIsTheMiddleValueAndIgnoresOutliers) {
+  EXPECT_DOUBLE_EQ(Median({}), 0.0);
+  EXPECT_DOUBLE_EQ(Median({3.0}), 3.0);
+  EXPECT_DOUBLE_EQ(Median({5.0, 1.0, 3.0}), 3.0);
+  EXPECT_DOUBLE_EQ(Median({4.0, 1.0, 3.0, 2.0}), 3.0);  // the upper middle of an even count
+  EXPECT_DOUBLE_EQ(Median({1.0, 1.0, 1.0, 1.0, 1e9}), 1.0);
+}
+
 // The control split's test (split_search.cc): a refined control that kept
 // its geometric halves is a control; one that left them is not.
 TEST(Cluster, SplitKeptShareMeasuresWhatARefinementKeptOfItsHalves) {

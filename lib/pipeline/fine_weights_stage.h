@@ -46,6 +46,7 @@ struct FineWeightsReport {
   // Held-out error per texel at the coarse atlas's region borders over that
   // inside the regions (the stage is tried above kMinBorderExcess).
   double border_excess = 0;
+  double border_excess_median = 0;  // the same, medians of the per-texel errors
   int64_t dropped = 0;  // band samples dropped: their coarse texel has no sample in that photo
   std::string line;  // for the log
 };

@@ -342,7 +342,8 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                              {"coarse_size", fine_weights.coarse_size}, {"fine_size", fine_weights.fine_size},
                              {"heldout_rmse_coarse", fine_weights.heldout_rmse_coarse},
                              {"heldout_rmse_fine", fine_weights.heldout_rmse_fine},
-                             {"border_excess", fine_weights.border_excess}};
+                             {"border_excess", fine_weights.border_excess},
+                             {"border_excess_median", fine_weights.border_excess_median}};
   summary["weights"] = est.per_channel_weights ? "per_channel" : "scalar";
   summary["weight_radius"] = est.weight_radius;
   summary["weight_unit_sum"] = est.weight_unit_sum;
