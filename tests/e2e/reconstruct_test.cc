@@ -93,6 +93,18 @@ std::string Scratch(const std::string& name) {
   return p.string();
 }
 
+// A reconstruction of DIR/capture into DIR/NAME without progress or report.
+ReconstructionJob QuietJob(const std::string& dir, const std::string& name) {
+  ReconstructionJob job;
+  job.scene_path = dir + "/capture/scene.json";
+  job.out_dir = dir + "/" + name;
+  job.gather.progress = false;
+  job.estimate.progress = false;
+  job.interreflection.progress = false;
+  job.report = false;
+  return job;
+}
+
 Outcome RunCase(const std::string& name, SynthOptions o, ReconstructOptions ro = {}, bool strip_uvs = false) {
   const std::string dir = Scratch(name);
   Synthesize(o, dir + "/capture");
@@ -349,12 +361,7 @@ TEST(Reconstruct, FineWeightsOnAChartAtlasDrawSharpBordersFiner) {
 TEST(Reconstruct, FineWeightsGateSeesBordersThatAHighlightHidesFromTheMean) {
   const std::string dir = Scratch("fine_gate");
   Synthesize(SynthPreset("default"), dir + "/capture");
-  ReconstructionJob job;
-  job.scene_path = dir + "/capture/scene.json";
-  job.out_dir = dir + "/material";
-  job.gather.progress = false;
-  job.estimate.progress = false;
-  const nlohmann::json f = RunReconstruction(job)["fine_weights"];
+  const nlohmann::json f = RunReconstruction(QuietJob(dir, "material"))["fine_weights"];
   std::printf("border error x the interior's: mean %.3f, median %.3f; fine %.6g vs coarse %.6g\n",
               f["border_excess"].get<double>(), f["border_excess_median"].get<double>(),
               f["heldout_rmse_fine"].get<double>(), f["heldout_rmse_coarse"].get<double>());
@@ -400,18 +407,6 @@ TEST(Reconstruct, MetalIsRecognisedAsConductor) {
   ASSERT_EQ(r.clusters, 1);
   EXPECT_EQ(CheckMetal(r, 0.02), 1);
   EXPECT_GE(r.psnr_mean, 55.0);
-}
-
-// A reconstruction of DIR/capture into DIR/NAME without progress or report.
-ReconstructionJob QuietJob(const std::string& dir, const std::string& name) {
-  ReconstructionJob job;
-  job.scene_path = dir + "/capture/scene.json";
-  job.out_dir = dir + "/" + name;
-  job.gather.progress = false;
-  job.estimate.progress = false;
-  job.interreflection.progress = false;
-  job.report = false;
-  return job;
 }
 
 // A torus, half `metal_model` (a reflecting metal), half a lit diffuse paint,
