@@ -30,12 +30,6 @@ std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double
   return e;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
 double TrimmedRmse(std::vector<double> e) {
   if (e.empty()) return 0.0;
   const size_t keep = std::max<size_t>(1, e.size() - e.size() / 50);

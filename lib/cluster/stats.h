@@ -30,9 +30,6 @@ std::vector<double> SampleErrors(const ModelSpec& spec, const std::vector<double
 // which model describes the cluster.
 double TrimmedRmse(std::vector<double> e);
 
-// The median (the upper one of an even count); 0 for no values.
-double Median(std::vector<double> v);
-
 // Share of the samples `ids` that `display` shows at white (some channel at
 // or above 1): clamped, they cannot tell models apart. Model selection falls
 // back to linear errors for a cluster where this share is large (photos

@@ -3,6 +3,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -28,6 +29,13 @@ struct Frame {
   Vec3 ToLocal(const Vec3& w) const { return Vec3(w.dot(t), w.dot(b), w.dot(n)); }
   Vec3 ToWorld(const Vec3& w) const { return w.x() * t + w.y() * b + w.z() * n; }
 };
+
+// The median (the upper one of an even count); 0 for no values.
+inline double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
 
 // A cosine-weighted direction of the upper hemisphere (z up, pdf cos / pi)
 // from two uniform numbers in [0, 1): Malley's method, u1 for the radius of

@@ -11,12 +11,6 @@
 
 namespace svbrdf {
 
-// The rays of a footprint measure (GatherOptions::footprint_rays,
-// probe_rays): n x n stratified rays through each of the four pixels of the
-// bilinear lookup at continuous pixel (px, py). Calls visit(w, hit, h, pixel)
-// for each, w = the lookup's weight of the ray's pixel / n^2 (they sum to 1),
-// hit = whether the ray meets the mesh (then at h), pixel = dx + 2 dy of
-// the ray's pixel in the lookup (0..3; pixels of weight 0 are skipped).
 // How far from a sample's surface point a lookup ray may meet the mesh and
 // still be on the same patch: a pixel spans dist / f metres head-on,
 // dist / (f cos) along the surface (cos of the view angle, floored at
@@ -26,6 +20,12 @@ inline double LookupPatchTolerance(double dist, double focal_px, double cos_view
   return 3.0 * dist / focal_px / std::max(cos_view, 0.05);
 }
 
+// The rays of a footprint measure (GatherOptions::footprint_rays,
+// probe_rays): n x n stratified rays through each of the four pixels of the
+// bilinear lookup at continuous pixel (px, py). Calls visit(w, hit, h, pixel)
+// for each, w = the lookup's weight of the ray's pixel / n^2 (they sum to 1),
+// hit = whether the ray meets the mesh (then at h), pixel = dx + 2 dy of
+// the ray's pixel in the lookup (0..3; pixels of weight 0 are skipped).
 template <class Visit>
 void ForEachLookupRay(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                       double px, double py, int n, Visit&& visit) {

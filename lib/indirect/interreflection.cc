@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "core/error.h"
 #include "core/parallel.h"
@@ -29,12 +30,6 @@ std::string InterreflectionReport::Summary() const {
 
 namespace {
 
-double Median(std::vector<double>* v) {
-  if (v->empty()) return 0;
-  std::nth_element(v->begin(), v->begin() + v->size() / 2, v->end());
-  return (*v)[v->size() / 2];
-}
-
 // Per texel and channel: median of pi y / (geom + e) over the texel's
 // samples (e: per sample and channel, or none); texels without samples
 // take the median over texels.
@@ -47,12 +42,12 @@ std::vector<Rgb> LambertAlbedo(const SampleSet& s, const std::vector<Rgb>* e) {
       std::vector<double> v;
       for (int64_t i = s.texel_begin[t]; i < s.texel_begin[t + 1]; ++i)
         v.push_back(kPi * s.y[c][i] / (s.geom[i] + (e ? (*e)[i][c] : 0.0)));
-      rho[t][c] = Median(&v);
+      rho[t][c] = Median(std::move(v));
       all[c].push_back(rho[t][c]);
     }
   }
   Rgb typical;
-  for (int c = 0; c < 3; ++c) typical[c] = Median(&all[c]);
+  for (int c = 0; c < 3; ++c) typical[c] = Median(std::move(all[c]));
   for (Rgb& r : rho)
     if (r[0] < 0) r = typical;
   return rho;

@@ -26,12 +26,11 @@ Vec3 MaterialNormal(const Material& material, const Texel& texel, const Atlas& a
 }
 
 namespace {
-void MeanMedian(std::vector<double> v, double* mean, double* median) {
+void MeanMedian(const std::vector<double>& v, double* mean, double* median) {
   double sum = 0;
   for (double d : v) sum += d;
   *mean = sum / v.size();
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  *median = v[v.size() / 2];
+  *median = Median(v);
 }
 }  // namespace
 

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "atlas/surface_neighbours.h"
 #include "cluster/clustering.h"
 #include "cluster/confidence.h"
-#include "cluster/stats.h"
 #include "cluster/weights.h"
 #include "core/error.h"
 
@@ -166,18 +166,17 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   std::vector<double> per_texel;
   double coarse_rmse = 0;
   const std::vector<float> coarse_train = TrainingWeights(coarse_cl, m, &coarse_rmse, &per_texel);
-  double border_sse = 0, inside_sse = 0;
-  int64_t border_n = 0, inside_n = 0;
   std::vector<double> border_errors, inside_errors;
   for (size_t t = 0; t < per_texel.size() && t < coarse_cl.neighbours().size(); ++t) {
     if (!(per_texel[t] > 0) || coarse_label[t] < 0) continue;
     bool border = false;
     for (int u : coarse_cl.neighbours()[t])
       border = border || (coarse_label[size_t(u)] >= 0 && coarse_label[size_t(u)] != coarse_label[t]);
-    (border ? border_sse : inside_sse) += per_texel[t];
-    ++(border ? border_n : inside_n);
     (border ? border_errors : inside_errors).push_back(per_texel[t]);
   }
+  const double border_sse = std::accumulate(border_errors.begin(), border_errors.end(), 0.0);
+  const double inside_sse = std::accumulate(inside_errors.begin(), inside_errors.end(), 0.0);
+  const double border_n = double(border_errors.size()), inside_n = double(inside_errors.size());
   r.border_excess = border_n && inside_n && inside_sse > 0 ? (border_sse / border_n) / (inside_sse / inside_n) : 0.0;
   // The same ratio of medians: a few interior texels far off (a metal's
   // highlight) can hold most of the interior's mean and hide borders that

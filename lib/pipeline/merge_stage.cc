@@ -207,7 +207,7 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
                                confirmed ? ": merged" : ": kept apart"));
     std::fprintf(stderr, "  merge: %s\n", report.lines.back().c_str());
     if (!confirmed) {
-      if (report.merges == 0) report.refit_apart = std::move(apart), report.has_refit_apart = true;
+      if (report.merges == 0) report.refit_apart = std::move(apart);
       break;
     }
     if (follow) FollowMerge(pairs[best].first, pairs[best].second, merged, follow);

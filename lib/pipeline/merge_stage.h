@@ -12,6 +12,7 @@
 // material about as well, and a split that no longer pays is undone with
 // the split search's own bar (ReconstructOptions::min_improvement).
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,8 +41,7 @@ struct MergeReport {
   // When a pair was refitted but not merged: the estimate refitted apart,
   // which is the first material round's refit (the same samples in the same
   // refined frames, the same materials), so that round need not fit it again.
-  bool has_refit_apart = false;
-  SvbrdfEstimate refit_apart;
+  std::optional<SvbrdfEstimate> refit_apart;
 };
 
 // One pair's test on the samples of its two clusters' texels, as the final

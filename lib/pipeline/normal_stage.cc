@@ -244,7 +244,8 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
   if (nr.kept && merge.enabled) {
     MergeReport m = MergeSameMaterials(g, eo, nr, merge, cluster_seconds, timer, &est, &nr);
     if (m.merges > 0) check_of_output = PhotoCheck();
-    if (m.has_refit_apart) first_refit = std::move(m.refit_apart), m.has_refit_apart = false;
+    first_refit = std::move(m.refit_apart);
+    m.refit_apart.reset();
     if (merged) *merged = std::move(m);
   }
   for (int round = 0; round < material_rounds && !start.empty(); ++round) {
