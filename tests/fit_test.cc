@@ -13,6 +13,7 @@
 #include "brdf/fresnel.h"
 #include "core/error.h"
 #include "fit/batch_cost.h"
+#include "fit/starts.h"
 #include "fit/synthetic.h"
 
 namespace svbrdf {
@@ -116,6 +117,44 @@ TEST(Fit, ExactConductorRecoversF0) {
     EXPECT_NEAR(f0, f0_true, 0.01 * f0_true) << "channel " << c;
   }
   EXPECT_NEAR(r.params[6], 0.2, 0.01);
+}
+
+// The second start family of the exact conductor (MetalLikeStart): the same
+// normal-incidence reflectance per channel, with the large kappa of a real
+// metal; nothing for other models.
+TEST(Fit, MetalLikeStartKeepsF0WithAMetalsKappa) {
+  const ModelSpec spec = ModelSpec::FromLabel("conductor-ggx");
+  // eta = 1 - f0 starts (ConductorStartFromF0's family): small kappa.
+  const std::vector<double> start = {0.074, 0.28, 0.45, 1.69, 1.1, 1.2, 0.12};
+  const std::vector<double> metal = MetalLikeStart(spec, start);
+  ASSERT_EQ(metal.size(), start.size());
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(brdf::ConductorF0(metal[c], metal[3 + c]), brdf::ConductorF0(start[c], start[3 + c]), 1e-9)
+        << "channel " << c;
+    EXPECT_GE(metal[3 + c], 1.8) << "channel " << c;  // the metals of metals.h: kappa 1.8..7.6
+  }
+  EXPECT_EQ(metal[6], start[6]);  // roughness untouched
+  EXPECT_TRUE(MetalLikeStart(ModelSpec::FromLabel("conductor-ggx-schlick"), {0.9, 0.7, 0.5, 0.12}).empty());
+  EXPECT_TRUE(MetalLikeStart(ModelSpec::FromLabel("lambert"), {0.5, 0.5, 0.5}).empty());
+}
+
+// Copper (Johnson & Christy) seen at all angles: the exact conductor's fit
+// recovers the whole Fresnel curve, not only F0, and the roughness with it.
+TEST(Fit, ExactConductorRecoversCoppersFresnelCurve) {
+  const ModelSpec spec = ModelSpec::FromLabel("conductor-ggx");
+  const std::vector<double> truth = {0.271, 0.677, 1.316, 3.609, 2.625, 2.292, 0.12};  // Mitsuba's Cu, RGB
+  const SampleSet set = SynthesizeSamples(spec, truth, Synth(20000, 0.01));
+  FitOptions options;
+  options.threads = 1;
+  const FitResult r = FitModel(spec, set, {}, options);
+  for (int c = 0; c < 3; ++c)
+    for (double deg : {0.0, 40.0, 60.0, 75.0}) {
+      const double cosine = std::cos(deg * M_PI / 180);
+      EXPECT_NEAR(brdf::FresnelConductor(cosine, r.params[c], r.params[3 + c]),
+                  brdf::FresnelConductor(cosine, truth[c], truth[3 + c]), 0.01)
+          << "channel " << c << " at " << deg << " deg";
+    }
+  EXPECT_NEAR(r.params[6], 0.12, 0.005);
 }
 
 // Samples whose photo averages four normals (SampleSet::footprint: a

@@ -220,6 +220,12 @@ FitResult FitModel(const ModelSpec& spec, const SampleSet& samples, const std::v
   std::vector<std::vector<double>> starts =
       options.multi_start ? ShapeStarts(spec, base) : std::vector<std::vector<double>>{base};
   for (size_t k = 1; k < starts.size(); ++k) FitAmplitudes(spec, packed, screen, &starts[k]);
+  // One start of the exact conductor's second index family (starts.h), at
+  // the base start's roughness: one more screen, not one per roughness.
+  if (options.multi_start) {
+    std::vector<double> metal = MetalLikeStart(spec, starts[0]);
+    if (!metal.empty()) starts.push_back(std::move(metal));
+  }
 
   std::vector<double> best = starts[0];
   if (starts.size() > 1) {

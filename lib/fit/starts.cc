@@ -100,6 +100,27 @@ void ConductorStartFromF0(const ModelSpec& spec, const PackedSamples& packed, in
   ClampToBounds(spec, params);
 }
 
+// The index a real metal would have for normal-incidence reflectance f0:
+// kappa large (the metals of metals.h have kappa 1.8..7.6 in the visible),
+// eta from f0. ConductorStartFromF0's eta = 1 - f0 has kappa small. Along
+// a curve of equal F0 the two give different Fresnel curves off normal
+// incidence, and the exact fit is not convex there, so the screen of
+// starts (fit.cc) tries both families and keeps what fits the data.
+// kappa = min(3, 2 sqrt(f0 / (1 - f0))), the smaller eta of
+// ConductorF0(eta, kappa) = f0 (eta = 1 where kappa is below 3).
+void MetalLikeIndex(double f0, double* eta, double* kappa) {
+  f0 = std::clamp(f0, 0.0, 0.995);
+  const double k_eta1 = 2.0 * std::sqrt(f0 / (1.0 - f0));
+  if (k_eta1 <= 3.0) {
+    *eta = 1.0;
+    *kappa = k_eta1;
+    return;
+  }
+  *kappa = 3.0;
+  const double a = (1.0 + f0) / (1.0 - f0);
+  *eta = a - std::sqrt(std::max(0.0, a * a - (1.0 + *kappa * *kappa)));
+}
+
 }  // namespace
 
 void FitAmplitudes(const ModelSpec& spec, const PackedSamples& packed, int64_t count, std::vector<double>* params) {
@@ -178,6 +199,18 @@ std::vector<std::vector<double>> ShapeStarts(const ModelSpec& spec, const std::v
     if (std::find(starts.begin(), starts.end(), p) == starts.end()) starts.push_back(p);
   }
   return starts;
+}
+
+std::vector<double> MetalLikeStart(const ModelSpec& spec, const std::vector<double>& start) {
+  if (spec.family != Family::kConductor || spec.fresnel != FresnelMode::kExact) return {};
+  const std::vector<ParamInfo> info = spec.Params();
+  std::vector<double> out = start;
+  for (const char* c : {"_r", "_g", "_b"}) {
+    const int ie = ParamIndex(info, std::string("eta") + c), ik = ParamIndex(info, std::string("kappa") + c);
+    MetalLikeIndex(brdf::ConductorF0(start[ie], start[ik]), &out[ie], &out[ik]);
+  }
+  ClampToBounds(spec, &out);
+  return out == start ? std::vector<double>{} : out;
 }
 
 }  // namespace svbrdf

@@ -29,4 +29,10 @@ void FitAmplitudes(const ModelSpec& spec, const PackedSamples& packed, int64_t c
 // Models without lobes get only `base`. Values are clamped into bounds.
 std::vector<std::vector<double>> ShapeStarts(const ModelSpec& spec, const std::vector<double>& base);
 
+// Conductors with the exact Fresnel: `start` with each channel's (eta, kappa)
+// replaced by a real metal's kind of index (kappa large) of the same
+// normal-incidence reflectance; empty for other models or when nothing
+// changes. A second start family for a fit that is not convex in (eta, kappa).
+std::vector<double> MetalLikeStart(const ModelSpec& spec, const std::vector<double>& start);
+
 }  // namespace svbrdf
