@@ -1461,6 +1461,24 @@ TEST(FewPhotos, TrimmedDropIgnoresOneExplodingTexel) {
   EXPECT_NEAR(TrimmedDrop(before, before), 0.0, 1e-12);
 }
 
+// A material's drop (pruning, the split search's blend test): a distinct
+// material on 4 % of the texels, whose texels are far worse without it,
+// keeps that evidence (TrimmedDrop's trim of the `without` arm's worst 2 %
+// takes half of its region away); a texel bad in both arms stays out.
+TEST(FewPhotos, RemovalDropKeepsTheEvidenceOfASmallMaterial) {
+  const int n = 1000;
+  std::vector<double> without(n), with(n);
+  for (int t = 0; t < n; ++t) with[t] = 1.0 + 1e-6 * t, without[t] = with[t];  // distinct: no ties to trim
+  for (int t = 0; t < 40; ++t) without[t] = 10.0 + t;  // its region, relit by the wrong material
+  without[500] = with[500] = 1000.0;                   // a highlight no material explains
+  // Trimmed as TrimmedDrop trims: 19 of its 40 texels go (about 0.29).
+  EXPECT_LT(TrimmedDrop(without, with), 0.35);
+  // All 40 count, the highlight and the 19 next-worst of `with` stay out:
+  // 1 - 980 / 2120.
+  EXPECT_NEAR(RemovalDrop(without, with), 1.0 - 980.0 / 2120.0, 1e-3);
+  EXPECT_NEAR(RemovalDrop(with, with), 0.0, 1e-12);
+}
+
 // The texels TrimmedDrop leaves out, for tests that trim sums of their own
 // (the mirror stage): the worst 2 % of either, their union.
 TEST(FewPhotos, WorstOfEitherIsTheUnionOfBothWorstShares) {

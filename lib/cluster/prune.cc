@@ -29,7 +29,7 @@ MaterialRemoval ScoreRemoval(const Clustering& cl, int k, const WeightModel& m, 
   trial.Assign();
   std::vector<double> without_sse;
   trial.HeldoutRmse(m, &without_sse);
-  return {TrimmedDrop(without_sse, with_sse), ImprovementZ(without_sse, with_sse), trial.assign()};
+  return {RemovalDrop(without_sse, with_sse), ImprovementZ(without_sse, with_sse), trial.assign()};
 }
 
 int PruneMaterials(Clustering& cl, const WeightModel& weight_model, SvbrdfEstimate* est, const StageLog& log) {

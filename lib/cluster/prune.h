@@ -14,7 +14,7 @@
 // The test is the split search's run backwards: material k is removed (its
 // texels go to the remaining material that explains them best, the others
 // keep their fits) and kept only if the held-out error of the chosen weight
-// model is lower with it by `prune_min_drop` (TrimmedDrop) and by `min_z`
+// model is lower with it by `prune_min_drop` (RemovalDrop) and by `min_z`
 // standard errors (paired over texels), in display units as model selection
 // measures (linear when too many samples are white there). The bar is above
 // the split search's `min_improvement`: a split is judged before the final
@@ -28,7 +28,7 @@ namespace svbrdf {
 
 // Material k removed from `cl` (its texels join the remaining material that
 // explains them best, the others keep their fits): how much lower the
-// held-out error under `m` is with it (TrimmedDrop against `with_sse`, the
+// held-out error under `m` is with it (RemovalDrop against `with_sse`, the
 // per-texel held-out squared errors of `cl` under `m`), the paired z of that
 // drop, and the labels without it. Pruning's test; the split search asks it
 // of a split's halves (WeakerSplitHalf).

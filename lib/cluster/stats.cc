@@ -76,26 +76,45 @@ double ImprovementZ(const std::vector<double>& a, const std::vector<double>& b) 
   return std::max(PairedZ(a, b), BoundedPairedZ(a, b));
 }
 
-std::vector<char> WorstOfEither(const std::vector<double>& a, const std::vector<double>& b, double trim) {
-  const size_t n = std::min(a.size(), b.size()), cut = size_t(trim * double(n));
-  std::vector<char> worst(n, 0);
-  for (const std::vector<double>* v : {&a, &b}) {
-    if (cut == 0) break;
-    std::vector<size_t> order(n);
-    for (size_t t = 0; t < n; ++t) order[t] = t;
-    std::nth_element(order.begin(), order.begin() + (cut - 1), order.end(),
-                     [v](size_t x, size_t y) { return (*v)[x] > (*v)[y]; });
-    for (size_t j = 0; j < cut; ++j) worst[order[j]] = 1;
-  }
-  return worst;
+namespace {
+
+// Marks the largest `trim` share of v's first n entries in *worst.
+void MarkWorst(const std::vector<double>& v, size_t n, double trim, std::vector<char>* worst) {
+  const size_t cut = size_t(trim * double(n));
+  if (cut == 0) return;
+  std::vector<size_t> order(n);
+  for (size_t t = 0; t < n; ++t) order[t] = t;
+  std::nth_element(order.begin(), order.begin() + (cut - 1), order.end(),
+                   [&v](size_t x, size_t y) { return v[x] > v[y]; });
+  for (size_t j = 0; j < cut; ++j) (*worst)[order[j]] = 1;
 }
 
-double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim) {
-  const std::vector<char> worst = WorstOfEither(a, b, trim);
+double DropWithout(const std::vector<double>& a, const std::vector<double>& b, const std::vector<char>& worst) {
   double sa = 0, sb = 0;
   for (size_t t = 0; t < worst.size(); ++t)
     if (!worst[t]) sa += a[t], sb += b[t];
   return 1.0 - sb / std::max(1e-300, sa);
+}
+
+}  // namespace
+
+std::vector<char> WorstOfEither(const std::vector<double>& a, const std::vector<double>& b, double trim) {
+  const size_t n = std::min(a.size(), b.size());
+  std::vector<char> worst(n, 0);
+  MarkWorst(a, n, trim, &worst);
+  MarkWorst(b, n, trim, &worst);
+  return worst;
+}
+
+double TrimmedDrop(const std::vector<double>& a, const std::vector<double>& b, double trim) {
+  return DropWithout(a, b, WorstOfEither(a, b, trim));
+}
+
+double RemovalDrop(const std::vector<double>& without, const std::vector<double>& with, double trim) {
+  const size_t n = std::min(without.size(), with.size());
+  std::vector<char> worst(n, 0);
+  MarkWorst(with, n, trim, &worst);
+  return DropWithout(without, with, worst);
 }
 
 }  // namespace svbrdf
