@@ -110,7 +110,7 @@ void ConductorStartFromF0(const ModelSpec& spec, const PackedSamples& packed, in
 // ConductorF0(eta, kappa) = f0 (eta = 1 where kappa is below 3).
 void MetalLikeIndex(double f0, double* eta, double* kappa) {
   f0 = std::clamp(f0, 0.0, 0.995);
-  const double k_eta1 = 2.0 * std::sqrt(f0 / (1.0 - f0));
+  const double k_eta1 = brdf::ConductorKappaFromF0(f0, 1.0);  // 2 sqrt(f0 / (1 - f0))
   if (k_eta1 <= 3.0) {
     *eta = 1.0;
     *kappa = k_eta1;

@@ -178,9 +178,7 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   const double inside_sse = std::accumulate(inside_errors.begin(), inside_errors.end(), 0.0);
   const double border_n = double(border_errors.size()), inside_n = double(inside_errors.size());
   r.border_excess = border_n && inside_n && inside_sse > 0 ? (border_sse / border_n) / (inside_sse / inside_n) : 0.0;
-  // The same ratio of medians: a few interior texels far off (a metal's
-  // highlight) can hold most of the interior's mean and hide borders that
-  // most texels show worse.
+  // The same ratio of medians (kMinBorderExcess says why).
   const double inside_median = Median(inside_errors);
   r.border_excess_median = inside_median > 0 ? Median(border_errors) / inside_median : 0.0;
   if (r.border_excess < kMinBorderExcess && r.border_excess_median < kMinBorderExcess) {
@@ -245,7 +243,8 @@ FineWeightsReport RefineWeightsOnFinerAtlas(const Scene& scene, const GatherOpti
   r.kept = n > 0 && r.heldout_rmse_fine < r.heldout_rmse_coarse;
   r.line = Msg("fine weights: ", fine.atlas.width, "^2 atlas instead of ", g->atlas.width, "^2 within ",
                fo.band_rings, " texels of the region borders (border error ", r.border_excess,
-               " x the interior's, median ", r.border_excess_median, " x; ", std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf, " fine texels",
+               " x the interior's, median ", r.border_excess_median, " x; ",
+               std::count(in_band.begin(), in_band.end(), char(1)), " of ", nf, " fine texels",
                in.raw_y ? ", indirect light of the coarse texels removed" : "", "; ", r.dropped,
                " samples dropped: their coarse texel has none in that photo",
                "), held-out RMSE there ", r.heldout_rmse_fine, " against ", r.heldout_rmse_coarse, ": ",

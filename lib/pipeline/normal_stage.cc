@@ -244,8 +244,7 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
   if (nr.kept && merge.enabled) {
     MergeReport m = MergeSameMaterials(g, eo, nr, merge, cluster_seconds, timer, &est, &nr);
     if (m.merges > 0) check_of_output = PhotoCheck();
-    first_refit = std::move(m.refit_apart);
-    m.refit_apart.reset();
+    first_refit = std::exchange(m.refit_apart, std::nullopt);
     if (merged) *merged = std::move(m);
   }
   for (int round = 0; round < material_rounds && !start.empty(); ++round) {
