@@ -59,31 +59,69 @@ double ScaledTexelError(const SampleSet& samples, const std::vector<int64_t>& tr
 
 }  // namespace
 
+namespace {
+
+bool HeldSample(const SampleSet& samples, const std::vector<char>& held_image, int64_t s) {
+  const int im = samples.image[s];
+  return im >= 0 && im < int(held_image.size()) && held_image[im];
+}
+
+// The training samples of the texels labelled k, in texel order.
+std::vector<int64_t> TrainingSamples(const SampleSet& samples, const std::vector<int>& label, int k,
+                                     const std::vector<char>& held_image) {
+  std::vector<int64_t> train;
+  for (int t = 0; t < samples.num_texels; ++t) {
+    if (t >= int(label.size()) || label[t] != k) continue;
+    for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s)
+      if (!HeldSample(samples, held_image, s)) train.push_back(s);
+  }
+  return train;
+}
+
+}  // namespace
+
+std::optional<BasisMaterial> FitMaterialApart(const SampleSet& samples, const std::vector<int>& label,
+                                              const std::vector<BasisMaterial>& basis, int k,
+                                              const std::vector<char>& held_image, const FitOptions& fo) {
+  const std::vector<int64_t> train = TrainingSamples(samples, label, k, held_image);
+  if (train.empty()) return std::nullopt;
+  BasisMaterial apart = basis[k];
+  apart.params = FitModel(apart.spec, samples, train, fo, apart.params).params;
+  return apart;
+}
+
 MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
                     int i, int j, const std::vector<char>& held_image, const FitOptions& fo) {
-  auto held = [&](int64_t s) {
-    const int im = samples.image[s];
-    return im >= 0 && im < int(held_image.size()) && held_image[im];
-  };
-  std::vector<int64_t> train[2], train_both;
+  const std::optional<BasisMaterial> apart_i = FitMaterialApart(samples, label, basis, i, held_image, fo);
+  if (!apart_i) return MergeTest{};
+  const std::optional<BasisMaterial> apart_j = FitMaterialApart(samples, label, basis, j, held_image, fo);
+  if (!apart_j) return MergeTest{};
+  return TestMerge(samples, label, basis, i, j, held_image, fo, *apart_i, *apart_j);
+}
+
+MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
+                    int i, int j, const std::vector<char>& held_image, const FitOptions& fo,
+                    const BasisMaterial& apart_i, const BasisMaterial& apart_j) {
+  auto held = [&](int64_t s) { return HeldSample(samples, held_image, s); };
+  std::vector<int64_t> train_both;
   std::vector<std::pair<int, int>> texels;  // (texel, side)
+  bool trained[2] = {false, false};
   for (int t = 0; t < samples.num_texels; ++t) {
     const int side = label[t] == i ? 0 : label[t] == j ? 1 : -1;
     if (side < 0) continue;
     texels.emplace_back(t, side);
     for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) {
       if (held(s)) continue;
-      train[side].push_back(s);
+      trained[side] = true;
       train_both.push_back(s);
     }
   }
   MergeTest r;
-  if (train[0].empty() || train[1].empty()) return r;
+  if (!trained[0] || !trained[1]) return r;
   // Apart: each material fitted again on its own training samples, as the
-  // merged one is (the same options), from its current parameters.
-  BasisMaterial apart[2] = {basis[i], basis[j]};
-  for (int side = 0; side < 2; ++side)
-    apart[side].params = FitModel(apart[side].spec, samples, train[side], fo, apart[side].params).params;
+  // merged one is (the same options), from its current parameters
+  // (FitMaterialApart).
+  const BasisMaterial* apart[2] = {&apart_i, &apart_j};
   // Merged: either material's model fitted on the union (the better one on
   // the held-out photos is kept).
   BasisMaterial merged[2] = {basis[i], basis[j]};
@@ -101,7 +139,7 @@ MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, con
     std::vector<int64_t> tr, ho;
     for (int64_t s = samples.texel_begin[t]; s < samples.texel_begin[t + 1]; ++s) (held(s) ? ho : tr).push_back(s);
     if (tr.empty() || ho.empty()) continue;
-    apart_sse += ScaledTexelError(samples, tr, ho, apart[side]);
+    apart_sse += ScaledTexelError(samples, tr, ho, *apart[side]);
     for (int k = 0; k < 2; ++k) merged_sse[k] += ScaledTexelError(samples, tr, ho, merged[k]);
     count += int64_t(ho.size());
   }
@@ -159,13 +197,27 @@ MergeReport MergeSameMaterials(const GatherResult& g, const ReconstructOptions& 
     // preset's copper split); the refit confirms either.
     const std::vector<int> interior = InteriorLabels(g.atlas, est->label);
     const size_t np = pairs.size();
-    std::vector<MergeTest> tests(2 * np);
-    // A failed fit (Ceres) leaves its pair untested, not the run failed.
-    ParallelFor(long(2 * np), eo.threads, [&](long q) {
-      const size_t p = size_t(q) % np;
+    const std::vector<int>* screen_labels[2] = {&est->label, &interior};
+    // A material's fit apart depends only on its own texels, so it is made
+    // once per screen rather than once per pair it is in. A failed fit
+    // (Ceres) leaves its pairs untested, not the run failed.
+    std::vector<std::optional<BasisMaterial>> apart_fit(2 * size_t(K));
+    ParallelFor(long(2 * K), eo.threads, [&](long q) {
       try {
-        tests[q] = TestMerge(reoriented, size_t(q) < np ? est->label : interior, est->basis, pairs[p].first,
-                             pairs[p].second, held, fo);
+        apart_fit[q] = FitMaterialApart(reoriented, *screen_labels[q / K], est->basis, int(q % K), held, fo);
+      } catch (const Error& e) {
+        apart_fit[q].reset();
+      }
+    });
+    std::vector<MergeTest> tests(2 * np);
+    ParallelFor(long(2 * np), eo.threads, [&](long q) {
+      const size_t p = size_t(q) % np, screen = size_t(q) < np ? 0 : 1;
+      const std::optional<BasisMaterial>& a = apart_fit[screen * K + pairs[p].first];
+      const std::optional<BasisMaterial>& b = apart_fit[screen * K + pairs[p].second];
+      if (!a || !b) return;
+      try {
+        tests[q] = TestMerge(reoriented, *screen_labels[screen], est->basis, pairs[p].first, pairs[p].second, held,
+                             fo, *a, *b);
       } catch (const Error& e) {
         tests[q] = MergeTest{};
       }

@@ -57,6 +57,16 @@ struct MergeTest {
 };
 MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
                     int i, int j, const std::vector<char>& held_image, const FitOptions& fo);
+// The same with the two materials apart already fitted (FitMaterialApart of
+// i and of j on the same samples and labels).
+MergeTest TestMerge(const SampleSet& samples, const std::vector<int>& label, const std::vector<BasisMaterial>& basis,
+                    int i, int j, const std::vector<char>& held_image, const FitOptions& fo,
+                    const BasisMaterial& apart_i, const BasisMaterial& apart_j);
+// Material k of `basis` fitted again (from its parameters) on the training
+// samples of the texels labelled k; nothing when there are none.
+std::optional<BasisMaterial> FitMaterialApart(const SampleSet& samples, const std::vector<int>& label,
+                                              const std::vector<BasisMaterial>& basis, int k,
+                                              const std::vector<char>& held_image, const FitOptions& fo);
 
 // Merges pairs of `est`'s basis materials while some pair passes: its
 // materials apart are not better than merged by `eo.min_improvement`
