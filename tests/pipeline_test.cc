@@ -196,6 +196,42 @@ TEST(MergeStage, OneMaterialInTwoClustersMergesTwoMaterialsDoNot) {
   EXPECT_FALSE(TestMerge(one, label, start, 0, 1, std::vector<char>(12, 0), fo).tested);
 }
 
+// The stage fits each material apart once per screen and hands the fits to
+// every pair it is in: the same test as fitting them within the pair.
+TEST(MergeStage, MaterialFittedApartOnceTestsAsWithinThePair) {
+  const BasisMaterial red = Material("lambert", {0.6, 0.2, 0.1}), blue = Material("lambert", {0.1, 0.2, 0.6});
+  std::vector<int> label(90);
+  for (int t = 0; t < 90; ++t) label[t] = t / 30;
+  std::vector<char> held(12, 0);
+  held[2] = held[7] = 1;
+  FitOptions fo;
+  fo.threads = 1;
+  const std::vector<BasisMaterial> start = {Material("lambert", {0.5, 0.3, 0.2}), Material("lambert", {0.2, 0.2, 0.5}),
+                                            Material("lambert", {0.4, 0.3, 0.3})};
+  const SampleSet samples = SamplesOf({red, blue, red}, label, 4);
+  std::vector<BasisMaterial> apart;
+  for (int k = 0; k < 3; ++k) {
+    const std::optional<BasisMaterial> fit = FitMaterialApart(samples, label, start, k, held, fo);
+    ASSERT_TRUE(fit.has_value()) << k;
+    apart.push_back(*fit);
+  }
+  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{0, 1}, {0, 2}, {1, 2}}) {
+    const MergeTest within = TestMerge(samples, label, start, i, j, held, fo);
+    const MergeTest given = TestMerge(samples, label, start, i, j, held, fo, apart[i], apart[j]);
+    ASSERT_TRUE(within.tested && given.tested);
+    EXPECT_EQ(within.apart_rmse, given.apart_rmse) << i << j;
+    EXPECT_EQ(within.merged_rmse, given.merged_rmse) << i << j;
+    EXPECT_EQ(within.merged_model, given.merged_model);
+  }
+  // Red with red merges, red with blue does not.
+  EXPECT_TRUE(MergePays(TestMerge(samples, label, start, 0, 2, held, fo, apart[0], apart[2]).merged_rmse,
+                        TestMerge(samples, label, start, 0, 2, held, fo, apart[0], apart[2]).apart_rmse, 0.02));
+  const MergeTest red_blue = TestMerge(samples, label, start, 0, 1, held, fo, apart[0], apart[1]);
+  EXPECT_FALSE(MergePays(red_blue.merged_rmse, red_blue.apart_rmse, 0.02));
+  // A label without texels has nothing to fit.
+  EXPECT_FALSE(FitMaterialApart(samples, std::vector<int>(90, 0), start, 1, held, fo).has_value());
+}
+
 // A merge is kept when the materials apart are not better by the split
 // search's own bar (min_improvement): the mixed preset's copper halves at
 // seed 3, measured (0.0219 apart, 0.0211 merged); a real third material
