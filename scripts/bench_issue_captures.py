@@ -8,9 +8,9 @@ each: sphere >= 46 dB, torus >= 38 dB, a bunny scan without UVs >= 38 dB, a
 dragon scan without UVs with the second material set (glazed ceramic, copper,
 matte paint) >= 34 dB, the right count (3) on all, each <= 20 s. This script
 renders captures of each type with seeds no method was ever run on
-(201-204, then 205-210; fixed here), via scripts/mitsuba_capture_ceramic.py (`--set metal`:
-mitsuba_capture.py's copper / red plastic / green paint; default: the ceramic
-set), two bounces, and a ceiling (the held-out views rendered again from the
+(201-204, then 205-210; fixed here), via scripts/mitsuba_capture_ceramic.py
+(`--set metal`: mitsuba_capture.py's copper / red plastic / green paint;
+default: the ceramic set), two bounces, and a ceiling (the held-out views rendered again from the
 truth, independent sampler seed, no added noise). The scans come from
 Debian's CGAL data (scripts/scan_mesh.py: bunny00 and ChineseDragon-10kv,
 decimated to ~8 k triangles). Scans are rendered at 128 spp and their
@@ -90,7 +90,7 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--mitsuba-python", default="/work/scratch/mi/bin/python")
     ap.add_argument("--out", default=os.path.join(bench.ROOT, "bench_results", "issue_captures"))
-    ap.add_argument("--seeds", default="", help="comma-separated seeds of CASES to run (default: all)")
+    ap.add_argument("--seeds", default="", help="comma-separated seeds of CASES to run (default: all); OUT then holds only those")
     args = ap.parse_args()
     seeds = {int(x) for x in args.seeds.split(",") if x.strip()}
     unknown = seeds - {c[5] for c in CASES}

@@ -57,10 +57,7 @@ double ScaledTexelError(const SampleSet& samples, const std::vector<int64_t>& tr
   return sse;
 }
 
-}  // namespace
-
-namespace {
-
+// Whether sample s is of a held-out photo.
 bool HeldSample(const SampleSet& samples, const std::vector<char>& held_image, int64_t s) {
   const int im = samples.image[s];
   return im >= 0 && im < int(held_image.size()) && held_image[im];
