@@ -75,8 +75,8 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "--max-lookup-contrast rejects only where the pixel footprint spans at least this turn of the mesh\n"
                 "normal (degrees; 0 = everywhere)");
   c->add_option("--footprint-subsamples", job->gather.footprint_subsamples,
-                "n x n rays per pixel of each sample's lookup give each pixel's mean normal; predictions average the\n"
-                "BRDF over the four pixels as the photo does (0 = off: the texel-centre normal)");
+                "n x n rays per pixel of each sample's lookup, their normals reduced to four weighted ones;\n"
+                "predictions average the BRDF over them as the photo does (0 = off: the texel-centre normal)");
   c->add_option("--footprint-min-tilt", job->gather.footprint_min_tilt_deg,
                 "--footprint-subsamples are kept when the median pixel normal's tilt is at least this (degrees)");
   c->add_option("--probe-rays", job->gather.probe_rays,

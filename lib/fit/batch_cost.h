@@ -23,7 +23,7 @@ struct PackedSamples {
   std::vector<double> values;
   // With footprint sub-samples (SampleSet::footprint): per sample
   // kFootprintSubsamples x (wi xyz, wo xyz, weight x cos ratio) in the
-  // frames of its pixels' normals, fixed by the geometry (computed once);
+  // frames of its footprint's normals, fixed by the geometry (computed once);
   // the sample's prediction is the weighted sum of f over them, times geom.
   static constexpr int kPairStride = 7;
   std::vector<double> pairs;

@@ -12,7 +12,7 @@ Rgb PredictSample(const ModelSpec& spec, const double* params, const SampleSet& 
   const Vec3 wi(samples.wi[0][s], samples.wi[1][s], samples.wi[2][s]);
   const Vec3 wo(samples.wo[0][s], samples.wo[1][s], samples.wo[2][s]);
   if (!samples.HasFootprint()) return EvalModelD(spec, params, wi, wo) * static_cast<double>(samples.geom[s]);
-  // The lookup-weighted mean over its pixels' normals (SampleSet::footprint).
+  // The weighted mean over its footprint's normals (SampleSet::footprint).
   Rgb sum = Rgb::Zero();
   const float* fp = &samples.footprint[size_t(s) * 3 * SampleSet::kFootprintSubsamples];
   for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j, fp += 3) {

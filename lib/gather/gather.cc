@@ -9,6 +9,7 @@
 #include "core/parallel.h"
 #include "atlas/charts.h"
 #include "core/progress.h"
+#include "gather/footprint_quadrature.h"
 #include "gather/lookup_rays.h"
 #include "raytrace/raytracer.h"
 
@@ -90,6 +91,7 @@ struct Record {
   bool signal = false;  // a channel above the noise floor
   float wi[3], wo[3], geom, y[3];
   float footprint[3 * SampleSet::kFootprintSubsamples] = {};  // GatherOptions::footprint_subsamples
+  float pixel_tilt = 0;  // the largest tilt of the lookup pixels' mean normals (footprint_min_tilt_deg)
   SampleProbe probe;
 };
 
@@ -148,35 +150,25 @@ bool FootprintNormal(const RayTracer& tracer, const Camera& cam, const Rigid3& w
   return mean->norm() > 1e-6;
 }
 
-// GatherOptions::footprint_subsamples: per pixel of the lookup (in
-// ForEachLookupRay's order) the mean shading normal of its rays that meet
-// this patch (within `tolerance` of x), as a tilt of `frame`, and the
-// lookup weight of those rays; out: SampleSet::footprint's entries of one
-// sample. Pixels whose rays all miss the patch, or whose mean normal faces
-// away from the frame's, get weight 0; the others' weights are scaled to
-// sum to 1. Returns false when no pixel is left.
+// GatherOptions::footprint_subsamples: the lookup's rays (ForEachLookupRay)
+// that meet this patch (within `tolerance` of x), each as the tilt of its
+// shading normal in `frame`, reduced to SampleSet::footprint's entries of
+// one sample (footprint_quadrature.h), and the largest tilt of the pixels'
+// mean normals (`pixel_tilt`, what GatherOptions::footprint_min_tilt_deg
+// compares). Rays whose normal faces away from the frame's are left out.
+// Returns false when no ray is left.
 bool FootprintSubsamples(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                          const Vec3& x, const Frame& frame, double tolerance, double px, double py, int n,
-                         float* out) {
-  constexpr int kPixels = SampleSet::kFootprintSubsamples;
-  Vec3 normal[kPixels] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
-  double weight[kPixels] = {0, 0, 0, 0};
+                         float* out, float* pixel_tilt) {
+  FootprintRay rays[4 * 8 * 8];  // GatherOptions::Check: n <= 8
+  int count = 0;
   ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h, int p) {
     if (!hit || (tracer.Position(h) - x).norm() > tolerance) return;
-    normal[p] += w * tracer.ShadingNormal(h);
-    weight[p] += w;
+    const Vec3 m = frame.ToLocal(tracer.ShadingNormal(h));
+    if (m.z() > 0.2 * m.norm()) rays[count++] = {m.x() / m.z(), m.y() / m.z(), w, p};
   });
-  double total = 0;
-  for (int p = 0; p < kPixels; ++p) {
-    const Vec3 m = frame.ToLocal(normal[p]);
-    if (!(weight[p] > 0) || !(m.z() > 0.2 * m.norm())) weight[p] = 0;
-    out[3 * p] = weight[p] > 0 ? float(m.x() / m.z()) : 0.f;
-    out[3 * p + 1] = weight[p] > 0 ? float(m.y() / m.z()) : 0.f;
-    total += weight[p];
-  }
-  if (!(total > 0)) return false;
-  for (int p = 0; p < kPixels; ++p) out[3 * p + 2] = float(weight[p] / total);
-  return true;
+  *pixel_tilt = float(LargestEntryTilt(rays, count, SampleSet::kFootprintSubsamples));
+  return ReduceFootprintRays(rays, count, SampleSet::kFootprintSubsamples, out);
 }
 
 }  // namespace
@@ -364,7 +356,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       }
       if (options.footprint_subsamples > 0) {
         if (!FootprintSubsamples(tracer, cam, world_from_cam, eye, x, Frame::FromNormalTangent(ns, tx.tangent),
-                                 tolerance, px.x(), px.y(), options.footprint_subsamples, r.footprint))
+                                 tolerance, px.x(), px.y(), options.footprint_subsamples, r.footprint,
+                                 &r.pixel_tilt))
           return void(r.reason = kOccluded);
       }
       const LightSample ls = SampleLight(light, x, world_from_cam.rotation, eye);
@@ -495,6 +488,7 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   if (options.probe_rays > 0) out.probes.resize(st.kept);
   constexpr int kFp = 3 * SampleSet::kFootprintSubsamples;
   if (options.footprint_subsamples > 0) ss.footprint.resize(size_t(st.kept) * kFp);
+  std::vector<float> pixel_tilt(options.footprint_subsamples > 0 ? st.kept : 0);
   for (size_t i = 0; i < per_image.size(); ++i)
     for (const auto& [t, r] : per_image[i]) {
       const int64_t s = cursor[t]++;
@@ -502,20 +496,16 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
       ss.texel[s] = t;
       ss.image[s] = static_cast<int32_t>(i);
       ss.geom[s] = r.geom;
-      if (options.footprint_subsamples > 0) std::copy(r.footprint, r.footprint + kFp, ss.footprint.begin() + s * kFp);
+      if (options.footprint_subsamples > 0) {
+        std::copy(r.footprint, r.footprint + kFp, ss.footprint.begin() + s * kFp);
+        pixel_tilt[s] = r.pixel_tilt;
+      }
       for (int k = 0; k < 3; ++k) ss.wi[k][s] = r.wi[k], ss.wo[k][s] = r.wo[k], ss.y[k][s] = r.y[k];
     }
   if (options.footprint_subsamples > 0) {
     // GatherOptions::footprint_min_tilt_deg: the sub-samples only where the
     // normal turns within the pixels.
-    std::vector<float> tilt(ss.size());
-    for (int64_t s = 0; s < ss.size(); ++s) {
-      float worst = 0;
-      const float* fp = &ss.footprint[size_t(s) * kFp];
-      for (int j = 0; j < SampleSet::kFootprintSubsamples; ++j)
-        if (fp[3 * j + 2] > 0) worst = std::max(worst, std::hypot(fp[3 * j], fp[3 * j + 1]));
-      tilt[s] = worst;
-    }
+    std::vector<float>& tilt = pixel_tilt;
     std::nth_element(tilt.begin(), tilt.begin() + tilt.size() / 2, tilt.end());
     st.footprint_median_tilt_deg = std::atan(double(tilt[tilt.size() / 2])) * 180 / kPi;
     st.footprint_kept = st.footprint_median_tilt_deg >= options.footprint_min_tilt_deg;

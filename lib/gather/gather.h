@@ -61,18 +61,20 @@ struct GatherOptions {
   // little (bench_results/independent.md).
   int footprint_rays = 0;
   // Footprint sub-samples (SampleSet::footprint): n x n rays through each
-  // of the four pixels of a sample's bilinear lookup give each pixel's mean
-  // shading normal, and predictions average the BRDF over the four (lookup-
-  // weighted), as the photo does. Where the normal turns within a pixel (the
+  // of the four pixels of a sample's bilinear lookup, each with its shading
+  // normal and lookup weight, reduced to four weighted normals
+  // (footprint_quadrature.h), and predictions average the BRDF over the
+  // four, as the photo does. Where the normal turns within a pixel (the
   // bunny scan) the texel-centre normal mispredicts highlights; the true
   // material predicts a scan's samples far better averaged over the
   // lookup's rays than at the centre (tests/bench/sample_oracle_bench,
-  // ORACLE_EXACT).
+  // ORACLE_EXACT), and a polished metal's lobe, as narrow as the turn within
+  // one pixel, needs the rays' spread, not only the pixels' mean normals.
   // 0 = off. Cost: 4 n^2 camera rays per kept sample, 48 bytes per sample,
   // and 4 model evaluations per sample in every fit and prediction: they
   // are kept only where the normal turns within the pixels, when the median
-  // over samples of the largest pixel normal's tilt is at least
-  // `footprint_min_tilt_deg`. Scans (Mitsuba bunny, armadillo) gain
+  // over samples of the largest tilt of a lookup pixel's mean normal is at
+  // least `footprint_min_tilt_deg`. Scans (Mitsuba bunny, armadillo) gain
   // held-out accuracy; smooth meshes (sphere, default, mixed) gain nothing
   // and would pay twice the CPU (bench_results/independent.md). Synthetic
   // photos sample the pixel centre (n = 1 would be exact there), Mitsuba's

@@ -27,10 +27,11 @@ struct SampleSet {
   std::vector<float> y[3];
   // Footprint sub-samples (GatherOptions::footprint_subsamples): the photo
   // value is a bilinear lookup of four pixels, each integrating the surface
-  // over its area, so the sample is predicted as the lookup-weighted mean of
-  // the BRDF under each pixel's mean shading normal. Per sample
-  // kFootprintSubsamples entries of (a, b, w): the pixel's normal as the
-  // tilt normalize(a, b, 1) of the sample's local frame, and its weight (the
+  // over its area, so the sample is predicted as the weighted mean of the
+  // BRDF under the shading normals its lookup's rays meet, in a quadrature
+  // of kFootprintSubsamples entries (a, b, w) per sample
+  // (gather/footprint_quadrature.h): a normal as the tilt
+  // normalize(a, b, 1) of the sample's local frame, and its weight (the
   // weights sum to 1; w = 0: unused). Empty: the texel-centre normal only.
   static constexpr int kFootprintSubsamples = 4;
   std::vector<float> footprint;  // 3 * kFootprintSubsamples floats per sample

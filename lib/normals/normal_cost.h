@@ -36,7 +36,7 @@ struct TexelSample {
   // texel's (0 for the texel's own samples).
   double offset[2] = {0, 0};
   // Footprint sub-samples (SampleSet::footprint): the sample is the weighted
-  // mean over its lookup pixels' normals, each a tilt (a, b) of the mesh
+  // mean over its footprint's normals, each a tilt (a, b) of the mesh
   // frame added to the texel's; num_sub = 0: the texel's normal only.
   static constexpr int kMaxSub = SampleSet::kFootprintSubsamples;
   double sub[kMaxSub][3] = {};  // a, b, weight

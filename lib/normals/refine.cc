@@ -663,7 +663,7 @@ SampleSet ReorientSamples(const SampleSet& s, const std::vector<Vec2>& tilt) {
       const float fwo[3] = {float(wo.x()), float(wo.y()), float(wo.z())};
       const float y[3] = {s.y[0][i], s.y[1][i], s.y[2][i]};
       out.Push(t, s.image[i], fwi, fwo, float(s.geom[i] * ratio), y);
-      // The pixels' normals keep their tilts relative to the refined normal.
+      // The footprint's normals keep their tilts relative to the refined normal.
       if (s.HasFootprint())
         out.footprint.insert(out.footprint.end(), s.footprint.begin() + 3 * SampleSet::kFootprintSubsamples * i,
                              s.footprint.begin() + 3 * SampleSet::kFootprintSubsamples * (i + 1));
