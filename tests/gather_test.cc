@@ -113,3 +113,13 @@ TEST(FootprintQuadrature, OnePixelsRaysAreSplitAndNoRaysIsFalse) {
   EXPECT_FALSE(ReduceFootprintRays(nullptr, 0, 4, q));
   for (int e = 0; e < 4; ++e) EXPECT_EQ(q[3 * e + 2], 0.0f);
 }
+
+// More entries or rays than the reduction's fixed bounds: an error, not a
+// write past its arrays.
+TEST(FootprintQuadrature, BeyondItsBoundsThrows) {
+  std::vector<FootprintRay> rays = LookupRays(2, 0.05, 0.5, 0.5);
+  float q[3 * (kMaxFootprintEntries + 1)];
+  EXPECT_THROW(ReduceFootprintRays(rays.data(), int(rays.size()), kMaxFootprintEntries + 1, q), std::exception);
+  std::vector<FootprintRay> many(kMaxFootprintRays + 1, rays[0]);
+  EXPECT_THROW(ReduceFootprintRays(many.data(), int(many.size()), 4, q), std::exception);
+}

@@ -2,51 +2,54 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
+
+#include "core/error.h"
 
 namespace svbrdf {
 
 namespace {
 
-// Weighted means of the entries' rays; returns the total weight.
-double EntryMeans(const FootprintRay* rays, int count, int entries, std::vector<double>* a, std::vector<double>* b,
-                  std::vector<double>* w) {
-  a->assign(entries, 0.0), b->assign(entries, 0.0), w->assign(entries, 0.0);
+// Weighted means of the entries' rays (entries <= kMaxFootprintEntries).
+// Fixed-size: the gather reduces every kept sample's rays, and heap vectors
+// there cost more than the reduction itself.
+struct EntryMeans {
+  double a[kMaxFootprintEntries] = {}, b[kMaxFootprintEntries] = {}, w[kMaxFootprintEntries] = {};
   double total = 0;
-  for (int r = 0; r < count; ++r) {
-    const FootprintRay& ray = rays[r];
-    (*a)[ray.entry] += ray.w * ray.a, (*b)[ray.entry] += ray.w * ray.b, (*w)[ray.entry] += ray.w;
-    total += ray.w;
+  EntryMeans(const FootprintRay* rays, int count, int entries) {
+    for (int r = 0; r < count; ++r) {
+      const FootprintRay& ray = rays[r];
+      a[ray.entry] += ray.w * ray.a, b[ray.entry] += ray.w * ray.b, w[ray.entry] += ray.w;
+      total += ray.w;
+    }
+    for (int e = 0; e < entries; ++e)
+      if (w[e] > 0) a[e] /= w[e], b[e] /= w[e];
   }
-  for (int e = 0; e < entries; ++e)
-    if ((*w)[e] > 0) (*a)[e] /= (*w)[e], (*b)[e] /= (*w)[e];
-  return total;
-}
-
-}  // namespace
-
-namespace {
+};
 
 // Lloyd's iterations from the rays' entries: each ray to its nearest entry,
 // each entry to its rays' weighted mean. A handful settle 4 n^2 rays.
 void Lloyd(FootprintRay* rays, int count, int entries) {
-  std::vector<double> ca, cb, cw;
-  EntryMeans(rays, count, entries, &ca, &cb, &cw);
+  EntryMeans c(rays, count, entries);
   for (int iter = 0; iter < 4; ++iter) {
     bool moved = false;
     for (int r = 0; r < count; ++r) {
       FootprintRay& ray = rays[r];
+      // Squared distances: the nearest entry without a square root per pair.
+      auto d2 = [&](int e) {
+        const double da = ray.a - c.a[e], db = ray.b - c.b[e];
+        return da * da + db * db;
+      };
       int best = ray.entry;
-      double best_d = std::hypot(ray.a - ca[best], ray.b - cb[best]);
+      double best_d = d2(best);
       for (int e = 0; e < entries; ++e) {
-        const double d = std::hypot(ray.a - ca[e], ray.b - cb[e]);
-        if (cw[e] > 0 && d < best_d) best = e, best_d = d;
+        const double d = d2(e);
+        if (c.w[e] > 0 && d < best_d) best = e, best_d = d;
       }
       moved |= best != ray.entry;
       ray.entry = best;
     }
     if (!moved) break;
-    EntryMeans(rays, count, entries, &ca, &cb, &cw);
+    c = EntryMeans(rays, count, entries);
   }
 }
 
@@ -74,35 +77,38 @@ void SplitAlongPrincipalAxis(FootprintRay* rays, int count, int from, int to) {
 }  // namespace
 
 bool ReduceFootprintRays(FootprintRay* rays, int count, int entries, float* out) {
+  if (entries < 1 || entries > kMaxFootprintEntries || count < 0 || count > kMaxFootprintRays)
+    throw Error(Msg("footprint quadrature: ", count, " rays into ", entries, " entries (at most ", kMaxFootprintRays,
+                    " into ", kMaxFootprintEntries, ")"));
   // Two deterministic starts, the better kept: the pixels (right where the
   // lookup weighs its pixels alike and the normal turns evenly), and the
   // rays split in two along their principal axis, each half again (right
   // where one pixel carries most of the weight, or the normal turns within
   // the pixels across the pixel grid); Lloyd's iterations refine both.
-  std::vector<FootprintRay> split(rays, rays + count);
+  FootprintRay split[kMaxFootprintRays];
+  std::copy(rays, rays + count, split);
   Lloyd(rays, count, entries);
   if (entries == 4 && count > 0) {
-    for (FootprintRay& r : split) r.entry = 0;
-    SplitAlongPrincipalAxis(split.data(), count, 0, 2);
-    SplitAlongPrincipalAxis(split.data(), count, 0, 1);
-    SplitAlongPrincipalAxis(split.data(), count, 2, 3);
-    Lloyd(split.data(), count, entries);
-    if (FootprintSpread(split.data(), count, entries) < FootprintSpread(rays, count, entries))
-      std::copy(split.begin(), split.end(), rays);
+    for (int r = 0; r < count; ++r) split[r].entry = 0;
+    SplitAlongPrincipalAxis(split, count, 0, 2);
+    SplitAlongPrincipalAxis(split, count, 0, 1);
+    SplitAlongPrincipalAxis(split, count, 2, 3);
+    Lloyd(split, count, entries);
+    if (FootprintSpread(split, count, entries) < FootprintSpread(rays, count, entries))
+      std::copy(split, split + count, rays);
   }
-  std::vector<double> ca, cb, cw;
-  const double total = EntryMeans(rays, count, entries, &ca, &cb, &cw);
+  const EntryMeans c(rays, count, entries);
   for (int e = 0; e < entries; ++e) {
-    const bool used = cw[e] > 0 && total > 0;
-    out[3 * e] = used ? float(ca[e]) : 0.f;
-    out[3 * e + 1] = used ? float(cb[e]) : 0.f;
-    out[3 * e + 2] = used ? float(cw[e] / total) : 0.f;
+    const bool used = c.w[e] > 0 && c.total > 0;
+    out[3 * e] = used ? float(c.a[e]) : 0.f;
+    out[3 * e + 1] = used ? float(c.b[e]) : 0.f;
+    out[3 * e + 2] = used ? float(c.w[e] / c.total) : 0.f;
   }
-  return total > 0;
+  return c.total > 0;
 }
 
 double LargestEntryTilt(const FootprintRay* rays, int count, int entries) {
-  std::vector<double> x(entries, 0.0), y(entries, 0.0), z(entries, 0.0);
+  double x[kMaxFootprintEntries] = {}, y[kMaxFootprintEntries] = {}, z[kMaxFootprintEntries] = {};
   for (int r = 0; r < count; ++r) {
     const double inv = 1 / std::sqrt(rays[r].a * rays[r].a + rays[r].b * rays[r].b + 1);
     const int e = rays[r].entry;
@@ -115,14 +121,13 @@ double LargestEntryTilt(const FootprintRay* rays, int count, int entries) {
 }
 
 double FootprintSpread(const FootprintRay* rays, int count, int entries) {
-  std::vector<double> ca, cb, cw;
-  const double total = EntryMeans(rays, count, entries, &ca, &cb, &cw);
+  const EntryMeans c(rays, count, entries);
   double s = 0;
   for (int r = 0; r < count; ++r) {
-    const double da = rays[r].a - ca[rays[r].entry], db = rays[r].b - cb[rays[r].entry];
+    const double da = rays[r].a - c.a[rays[r].entry], db = rays[r].b - c.b[rays[r].entry];
     s += rays[r].w * (da * da + db * db);
   }
-  return total > 0 ? s / total : 0.0;
+  return c.total > 0 ? s / c.total : 0.0;
 }
 
 }  // namespace svbrdf

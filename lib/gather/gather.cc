@@ -160,7 +160,8 @@ bool FootprintNormal(const RayTracer& tracer, const Camera& cam, const Rigid3& w
 bool FootprintSubsamples(const RayTracer& tracer, const Camera& cam, const Rigid3& world_from_cam, const Vec3& eye,
                          const Vec3& x, const Frame& frame, double tolerance, double px, double py, int n,
                          float* out, float* pixel_tilt) {
-  FootprintRay rays[4 * 8 * 8];  // GatherOptions::Check: n <= 8
+  static_assert(SampleSet::kFootprintSubsamples <= kMaxFootprintEntries);
+  FootprintRay rays[kMaxFootprintRays];  // GatherOptions::Check: n <= 8
   int count = 0;
   ForEachLookupRay(tracer, cam, world_from_cam, eye, px, py, n, [&](double w, bool hit, const Hit& h, int p) {
     if (!hit || (tracer.Position(h) - x).norm() > tolerance) return;
