@@ -598,6 +598,28 @@ TEST(Cluster, LooksAheadOncePerBestState) {
   EXPECT_GT(search(3).second, search(1).second);
 }
 
+// Before it stops, the split search tries every poorly explained cluster
+// it has not tried since the best state was kept. Here a bright glossy
+// material holds the most texels and, with 3 % noise, the largest squared
+// error of the two clusters once it is split from the dim rest; the dim rest
+// mixes two colours (at 41 % of its signal, well above `poor_fit`). With one failure
+// allowed in a row, the failed split of the glossy cluster would end the
+// search at 2 materials.
+TEST(Cluster, PoorlyExplainedClustersAreTriedBeforeTheSearchStops) {
+  const std::vector<BasisMaterial> truth = {Glossy(0.3, 2.0, 40), Lambert(0.3, 0.3, 0.05), Lambert(0.05, 0.3, 0.3)};
+  std::vector<std::vector<double>> mix(300, std::vector<double>(3, 0.0));
+  for (size_t t = 0; t < mix.size(); ++t) mix[t][t < 200 ? 0 : t < 250 ? 1 : 2] = 1.0;
+  const SampleSet s = MakeMixedSamples(truth, mix, 17, {}, 0.03);
+  auto count = [&](bool split_poor) {
+    ReconstructOptions o = Quiet();
+    o.max_failed_splits = 1;
+    o.split_poor_clusters = split_poor;
+    return EstimateSvbrdf(s, LineAtlas(300), o).basis.size();
+  };
+  EXPECT_EQ(count(false), 2u);
+  EXPECT_EQ(count(true), 3u);
+}
+
 // Three materials meeting at a junction with soft borders a few texels wide
 // (weights a softmax of the angle around the centre): texels near the centre
 // mix all three, texels in a blend zone have a share of a material whose

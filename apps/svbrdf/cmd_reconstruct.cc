@@ -37,6 +37,9 @@ void RegisterReconstruct(CLI::App& app, Runner* run) {
                 "(1-8)");
   c->add_option("--max-failed-splits", job->estimate.max_failed_splits,
                 "the split search stops after this many splits in a row that did not improve on the best state");
+  c->add_option("--split-poor-clusters", job->estimate.split_poor_clusters,
+                "before it stops, the split search tries once every cluster of the best state not tried since it was\n"
+                "kept whose held-out RMSE exceeds 10 % of its signal RMS (a poorly explained cluster; true/false)");
   c->add_option("--lookaheads-per-state", job->estimate.lookaheads_per_state,
                 "a failed split is followed by one more split of its state (a look-ahead) this many times per best\n"
                 "state; later failures backtrack at once (0 = never look ahead)");

@@ -7,6 +7,10 @@ namespace svbrdf {
 std::vector<ClusterQuality> MeasureClusterQuality(const Clustering& cl, const WeightModel& weights) {
   std::vector<double> texel_sse;
   cl.HeldoutRmse(weights, &texel_sse);
+  return ClusterQualityFromTexelSse(cl, texel_sse);
+}
+
+std::vector<ClusterQuality> ClusterQualityFromTexelSse(const Clustering& cl, const std::vector<double>& texel_sse) {
   const SampleSet& s = cl.samples();
   std::vector<ClusterQuality> q(cl.K());
   std::vector<double> sse(cl.K(), 0.0), signal(cl.K(), 0.0), n(cl.K(), 0.0);

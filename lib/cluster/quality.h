@@ -8,5 +8,8 @@
 namespace svbrdf {
 
 std::vector<ClusterQuality> MeasureClusterQuality(const Clustering& cl, const WeightModel& weights);
+// The same from held-out squared errors per texel already measured (as
+// Clustering::HeldoutRmse returns them) with the current assignment.
+std::vector<ClusterQuality> ClusterQualityFromTexelSse(const Clustering& cl, const std::vector<double>& texel_sse);
 
 }  // namespace svbrdf

@@ -5,6 +5,7 @@
 #include <string>
 #include <unordered_set>
 
+#include "cluster/quality.h"
 #include "cluster/region_holes.h"
 #include "cluster/split.h"
 #include "cluster/stats.h"
@@ -133,6 +134,27 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     log("time budget: split step stopped midway (undone)");
     return true;
   };
+  // Clusters of the best state a split has been tried on since it was kept
+  // (o.split_poor_clusters), and the one to try next before stopping.
+  std::vector<char> tried(cl.K(), 0);
+  int poor_next = -1, announced = -1;
+  auto untried_poor_cluster = [&] {
+    if (!o.split_poor_clusters || o.force_clusters > 0) return -1;
+    // (called with the best state restored)
+    const State& st = states[best_state];
+    variants_tried.resize(cl.K(), 0);
+    const std::vector<ClusterQuality> q = ClusterQualityFromTexelSse(cl, st.texel_sse);
+    int pick = -1;
+    double worst_sse = -1;
+    for (int j = 0; j < cl.K() && j < int(tried.size()); ++j)
+      if (!tried[j] && variants_tried[j] < kSplitVariants && q[j].poorly_explained && cl.ClusterSse(j) > worst_sse)
+        worst_sse = cl.ClusterSse(j), pick = j;
+    if (pick >= 0 && pick != announced)
+      announced = pick, log(Msg("cluster ", pick, " is poorly explained (held-out RMSE ", q[pick].heldout_rmse, ", ",
+              100 * q[pick].heldout_rmse / std::max(1e-300, q[pick].signal_rms),
+              " % of its signal RMS) and not tried since the best state: split before stopping"));
+    return pick;
+  };
   while (cl.K() < target) {
     if (o.SecondsLeft() < step_seconds) {
       est.cut_by_deadline.push_back("split search");
@@ -147,6 +169,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       const double e = cl.ClusterSse(j);
       if (variants_tried[j] < kSplitVariants && e > worst) worst = e, k = j;
     }
+    if (poor_next >= 0 && !lookahead) k = poor_next;
+    poor_next = -1;
     if (k < 0) break;
     const std::vector<int> side = SplitSides(cl, k, variants_tried[k]);
     const long plus = std::count(side.begin(), side.end(), 1), minus = std::count(side.begin(), side.end(), -1);
@@ -158,14 +182,18 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       log(Msg("split of cluster ", k, " (features ", variants_tried[k], "): a half of ", std::min(plus, minus),
               " texels is too small"));
       variants_tried[k]++;
+      if (!lookahead && fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0) break;
       continue;
     }
+    if (!lookahead && k < int(tried.size())) tried[k] = 1;  // a split is made (a half too small is no try)
     auto undo = [&] {
       restore(states[best_state]);
       variants_tried.resize(cl.K(), 0);
       variants_tried[lookahead ? root_cluster : k]++;
       lookahead = false;
-      return ++fails >= o.max_failed_splits;
+      if (++fails < o.max_failed_splits) return false;
+      poor_next = untried_poor_cluster();
+      return poor_next < 0;
     };
     std::vector<int> proposal(cl.assign());
     for (size_t t = 0; t < side.size(); ++t)
@@ -390,8 +418,10 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       lookahead = false;
       lookaheads = 0;
       std::fill(variants_tried.begin(), variants_tried.end(), 0);
+      tried.assign(cl.K(), 0);
+      announced = -1;
       if (!blend) fails = 0;
-      else if (++fails >= o.max_failed_splits) break;
+      else if (++fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0) break;
     } else if (!lookahead && lookaheads < o.lookaheads_per_state && !interleaved && cl.K() < target) {
       // Look one split ahead before giving up: splitting 3 materials into 2
       // clusters can be worse than 1 cluster (a colour mixed into the wrong
