@@ -418,8 +418,17 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       lookahead = false;
       lookaheads = 0;
       std::fill(variants_tried.begin(), variants_tried.end(), 0);
-      tried.assign(cl.K(), 0);
-      announced = -1;
+      // A split kept as a failed one (a blend) leaves the clusters tried
+      // as they were, its halves tried: the search is winding down, and
+      // trying every poorly explained cluster of each such state again
+      // chained split after split (seen: 6 s more on a Mitsuba torus).
+      if (blend) {
+        tried.resize(cl.K(), 1);
+        tried[k] = 1;
+      } else {
+        tried.assign(cl.K(), 0);
+        announced = -1;
+      }
       if (!blend) fails = 0;
       else if (++fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0) break;
     } else if (!lookahead && lookaheads < o.lookaheads_per_state && !interleaved && cl.K() < target) {
