@@ -127,9 +127,9 @@ struct ReconstructOptions {
   // each such cluster is tried once more. The failures in a row can all fall
   // on the worst cluster by squared error (the largest, or the brightest),
   // while a smaller cluster mixing two materials is never tried (seen on a
-  // Mitsuba elephant scan of five materials: two failed splits of a 7600
-  // texel diffuse cluster ended the search at 2 materials, the 3900 texel
-  // cluster at 61 % of its signal untried).
+  // Mitsuba elephant scan of five materials: two failed splits of the
+  // larger diffuse cluster ended the search at 2 materials, the other
+  // cluster, far above `poor_fit`, untried; docs/measurements.md).
   bool split_poor_clusters = true;
   // A split that fails is followed by one more split of the same state (a
   // look-ahead: 3 materials split into 2 clusters can be worse than 1, the

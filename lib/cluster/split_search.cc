@@ -421,7 +421,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       // A split kept as a failed one (a blend) leaves the clusters tried
       // as they were, its halves tried: the search is winding down, and
       // trying every poorly explained cluster of each such state again
-      // chained split after split (seen: 6 s more on a Mitsuba torus).
+      // chained split after split for the same result (seen on a Mitsuba
+      // torus; docs/measurements.md).
       if (blend) {
         tried.resize(cl.K(), 1);
         tried[k] = 1;
