@@ -33,9 +33,9 @@
 //        honest when model error dominates); otherwise the split is
 //        undone and the next-worst cluster is split instead
 //        (`max_failed_splits` failures in a row end the search, once every
-//        poorly explained cluster has been tried); a split whose smaller half has fewer than
-//        `min_cluster_fraction` of the texels is not made. No clustering
-//        state (texel partition) is evaluated twice.
+//        poorly explained cluster has been tried); a split whose smaller
+//        half has fewer than `min_cluster_fraction` of the texels is not
+//        made. No clustering state (texel partition) is evaluated twice.
 //  3. Model economy per cluster: screen every candidate model by a quick fit
 //     to a small random subset of the cluster's training samples, fit the
 //     best few fully (`selection_samples` of them), keep the model with the

@@ -146,14 +146,21 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     const std::vector<ClusterQuality> q = ClusterQualityFromTexelSse(cl, st.texel_sse);
     int pick = -1;
     double worst_sse = -1;
-    for (int j = 0; j < cl.K() && j < int(tried.size()); ++j)
-      if (!tried[j] && variants_tried[j] < kSplitVariants && q[j].poorly_explained && cl.ClusterSse(j) > worst_sse)
-        worst_sse = cl.ClusterSse(j), pick = j;
+    for (int j = 0; j < cl.K() && j < int(tried.size()); ++j) {
+      if (tried[j] || variants_tried[j] >= kSplitVariants || !q[j].poorly_explained) continue;
+      const double e = cl.ClusterSse(j);
+      if (e > worst_sse) worst_sse = e, pick = j;
+    }
     if (pick >= 0 && pick != announced)
       announced = pick, log(Msg("cluster ", pick, " is poorly explained (held-out RMSE ", q[pick].heldout_rmse, ", ",
               100 * q[pick].heldout_rmse / std::max(1e-300, q[pick].signal_rms),
               " % of its signal RMS) and not tried since the best state: split before stopping"));
     return pick;
+  };
+  // The search stops once `max_failed_splits` splits in a row failed and no
+  // poorly explained cluster is left to try (else poor_next is the next).
+  auto out_of_tries = [&] {
+    return fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0;
   };
   while (cl.K() < target) {
     if (o.SecondsLeft() < step_seconds) {
@@ -182,7 +189,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       log(Msg("split of cluster ", k, " (features ", variants_tried[k], "): a half of ", std::min(plus, minus),
               " texels is too small"));
       variants_tried[k]++;
-      if (!lookahead && fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0) break;
+      if (!lookahead && out_of_tries()) break;
       continue;
     }
     if (!lookahead && k < int(tried.size())) tried[k] = 1;  // a split is made (a half too small is no try)
@@ -191,9 +198,8 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       variants_tried.resize(cl.K(), 0);
       variants_tried[lookahead ? root_cluster : k]++;
       lookahead = false;
-      if (++fails < o.max_failed_splits) return false;
-      poor_next = untried_poor_cluster();
-      return poor_next < 0;
+      ++fails;
+      return out_of_tries();
     };
     std::vector<int> proposal(cl.assign());
     for (size_t t = 0; t < side.size(); ++t)
@@ -426,12 +432,13 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
       if (blend) {
         tried.resize(cl.K(), 1);
         tried[k] = 1;
+        ++fails;
+        if (out_of_tries()) break;
       } else {
         tried.assign(cl.K(), 0);
         announced = -1;
+        fails = 0;
       }
-      if (!blend) fails = 0;
-      else if (++fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0) break;
     } else if (!lookahead && lookaheads < o.lookaheads_per_state && !interleaved && cl.K() < target) {
       // Look one split ahead before giving up: splitting 3 materials into 2
       // clusters can be worse than 1 cluster (a colour mixed into the wrong

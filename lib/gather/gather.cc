@@ -506,9 +506,8 @@ GatherResult Gather(const Scene& scene, const GatherOptions& options) {
   if (options.footprint_subsamples > 0) {
     // GatherOptions::footprint_min_tilt_deg: the sub-samples only where the
     // normal turns within the pixels.
-    std::vector<float>& tilt = pixel_tilt;
-    std::nth_element(tilt.begin(), tilt.begin() + tilt.size() / 2, tilt.end());
-    st.footprint_median_tilt_deg = std::atan(double(tilt[tilt.size() / 2])) * 180 / kPi;
+    std::nth_element(pixel_tilt.begin(), pixel_tilt.begin() + pixel_tilt.size() / 2, pixel_tilt.end());
+    st.footprint_median_tilt_deg = std::atan(double(pixel_tilt[pixel_tilt.size() / 2])) * 180 / kPi;
     st.footprint_kept = st.footprint_median_tilt_deg >= options.footprint_min_tilt_deg;
     if (!st.footprint_kept) ss.footprint.clear();
   }
