@@ -240,6 +240,38 @@ TEST(NormalRefinement, KeepsMeshNormalsWhenTheyAreRightOrDataAreTooFew) {
   for (const Vec3& n : f.r.normal) EXPECT_EQ(n, Vec3(0, 0, 1));
 }
 
+// The screening decision (NormalOptions::screen_texels) on the first of the
+// decision texels: where the mesh normals are right it ends the refinement
+// with the same verdict as the full decision, on the screen's texels only;
+// where normals pay, the full decision runs after it and the result is the
+// one without the screen.
+TEST(NormalRefinement, ScreeningDecisionEndsWhereTheMeshNormalsAreRight) {
+  NormalOptions o;
+  o.progress = false;
+  o.threads = 2;
+  auto run = [&](const Patch& p, long screen) {
+    o.screen_texels = screen;
+    return RefineNormals(p.samples, p.atlas, p.estimate, o);
+  };
+  const Patch flat = MakePatch(BluePaint(), 16, 0.0, 24, 0.01, 3);
+  const NormalRefinement screened = run(flat, 100), full = run(flat, 0);
+  EXPECT_FALSE(screened.kept) << screened.Report();
+  EXPECT_FALSE(full.kept) << full.Report();
+  EXPECT_EQ(screened.decision_texels, 100);
+  EXPECT_GT(full.decision_texels, 200) << full.Report();
+  EXPECT_EQ(screened.normal, full.normal);
+  const Patch bumped = MakePatch(Lambert(), 16, 20.0, 16, 0.01, 7);
+  const NormalRefinement b_screened = run(bumped, 100), b_full = run(bumped, 0);
+  EXPECT_TRUE(b_screened.kept) << b_screened.Report();
+  EXPECT_EQ(b_screened.decision_texels, b_full.decision_texels);
+  EXPECT_GT(b_screened.decision_texels, 200);
+  EXPECT_EQ(b_screened.normal, b_full.normal);
+  EXPECT_EQ(b_screened.weights, b_full.weights);
+  // Out of range: more screening texels than decision texels.
+  o.screen_texels = o.decision_texels + 1;
+  EXPECT_THROW(o.Check(), Error);
+}
+
 TEST(NormalRefinement, IsDeterministicAcrossThreadCounts) {
   const Patch p = MakePatch(RedPlastic("cook_torrance-ggx"), 6, 15.0, 24, 0.01, 5);
   NormalOptions o;

@@ -41,6 +41,8 @@ void NormalOptions::Check() const {
   if (material_rounds < 0) fail("--material-rounds", material_rounds, ">= 0");
   if (max_iterations < 1) fail("max_iterations", max_iterations, ">= 1");
   if (decision_texels < 100) fail("decision_texels", decision_texels, ">= 100");
+  if (screen_texels != 0 && (screen_texels < 100 || screen_texels > decision_texels))
+    fail("screen_texels", screen_texels, "0 (off) or in [100, decision_texels]");
   if (!(min_improvement >= 0 && min_improvement < 1)) fail("min_improvement", min_improvement, "in [0, 1)");
   if (!(holdout_fraction > 0 && holdout_fraction < 0.9)) fail("holdout_fraction", holdout_fraction, "in (0, 0.9)");
 }
@@ -524,49 +526,51 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     if (own_train >= 1 && pooled_train >= o.min_samples && own_held > 0) candidates.push_back(t);
   }
   if (texels.empty()) return out;
-  // A seeded subset for the decision (hash order, then texel order).
-  if (long(candidates.size()) > o.decision_texels) {
+  // A seeded subset for the decision (hash order, then texel order), and
+  // the screening decision's: the first of the same hash order.
+  std::vector<int> screen;
+  {
     std::vector<std::pair<uint64_t, int>> keyed;
     for (int t : candidates) keyed.emplace_back(StreamSeed(o.seed, uint64_t(t), 0x6e6d), t);
-    std::nth_element(keyed.begin(), keyed.begin() + o.decision_texels, keyed.end());
-    keyed.resize(o.decision_texels);
+    std::sort(keyed.begin(), keyed.end());
+    if (long(keyed.size()) > o.decision_texels) keyed.resize(o.decision_texels);
     candidates.clear();
     for (const auto& kv : keyed) candidates.push_back(kv.second);
+    if (o.screen_texels > 0 && long(candidates.size()) > o.screen_texels)
+      screen.assign(candidates.begin(), candidates.begin() + o.screen_texels);
     std::sort(candidates.begin(), candidates.end());
+    std::sort(screen.begin(), screen.end());
   }
   const bool decide = o.mode == "on" && !candidates.empty();
   out.material_kept.assign(K, 1);
-  Progress progress("refine normals", long(o.iterations) * (long(texels.size()) + (decide ? long(candidates.size()) : 0)),
+  Progress progress("refine normals",
+                    long(o.iterations) * (long(texels.size()) + (decide ? long(candidates.size() + screen.size()) : 0)),
                     o.progress);
 
-  out.kept = true;
-  const auto decision_start = std::chrono::steady_clock::now();
-  if (decide) {
-    out.decision_texels = long(candidates.size());
-    State mesh = MakeState(candidates.size(), K), tilted = MakeState(candidates.size(), K);
-    r.Run(candidates, 0, false, nullptr, &mesh, nullptr);
-    // Anytime: a decision stopped by the deadline keeps the mesh normals.
-    if (r.Run(candidates, 0, true, start, &tilted, &progress) < 0) {
-      out.kept = false;
-      out.cut_by_deadline = true;
-      progress.Finish();
-      return out;
-    }
+  // The decision's two arms on `subset`, into out's decision fields (out.kept
+  // its verdict). False when the deadline stopped it.
+  auto decide_on = [&](const std::vector<int>& subset) {
+    out.decision_texels = long(subset.size());
+    State mesh = MakeState(subset.size(), K), tilted = MakeState(subset.size(), K);
+    r.Run(subset, 0, false, nullptr, &mesh, nullptr);
+    if (r.Run(subset, 0, true, start, &tilted, &progress) < 0) return false;
     // Per basis material (the texel's largest weight): refined normals are
     // kept for the texels of the materials whose held-out error they lower.
     // A material whose normals the data cannot locate (a glossy lobe seen by
     // too few samples, a wrong model) must not cost the others theirs.
     std::vector<double> sse_m, sse_t;
     std::vector<int64_t> n_m;  // the same held-out samples in both arms
-    r.HeldoutSse(candidates, mesh, &sse_m, &n_m);
-    r.HeldoutSse(candidates, tilted, &sse_t, nullptr);
+    r.HeldoutSse(subset, mesh, &sse_m, &n_m);
+    r.HeldoutSse(subset, tilted, &sse_t, nullptr);
     std::vector<double> mat_mesh(K, 0.0), mat_tilted(K, 0.0);
     std::vector<int64_t> mat_count(K, 0);
-    for (size_t j = 0; j < candidates.size(); ++j) {
-      const int k = r.Material(candidates[j]);
+    for (size_t j = 0; j < subset.size(); ++j) {
+      const int k = r.Material(subset[j]);
       mat_mesh[k] += sse_m[j], mat_tilted[k] += sse_t[j], mat_count[k] += n_m[j];
     }
     out.material_kept.assign(K, 0);
+    out.heldout_rmse_mesh_by_material.clear();
+    out.heldout_rmse_refined_by_material.clear();
     for (int k = 0; k < K; ++k) {
       out.material_kept[k] = mat_count[k] > 0 && mat_tilted[k] < (1.0 - o.min_improvement) * mat_mesh[k];
       out.heldout_rmse_mesh_by_material.push_back(std::sqrt(mat_mesh[k] / std::max<int64_t>(1, mat_count[k])));
@@ -574,9 +578,9 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     }
     double sse_mesh = 0, sse_chosen = 0;
     int64_t n_mesh = 0;
-    for (size_t j = 0; j < candidates.size(); ++j) {
+    for (size_t j = 0; j < subset.size(); ++j) {
       sse_mesh += sse_m[j], n_mesh += n_m[j];
-      sse_chosen += out.material_kept[r.Material(candidates[j])] ? sse_t[j] : sse_m[j];
+      sse_chosen += out.material_kept[r.Material(subset[j])] ? sse_t[j] : sse_m[j];
     }
     out.heldout_rmse_mesh = std::sqrt(sse_mesh / std::max<int64_t>(1, n_mesh));
     // The error of the chosen normals (refined where kept, mesh elsewhere).
@@ -586,9 +590,22 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     // decision texels) is not worth a normal map.
     out.kept = std::find(out.material_kept.begin(), out.material_kept.end(), 1) != out.material_kept.end() &&
                sse_chosen < (1.0 - o.min_improvement) * sse_mesh;
-    if (!out.kept) {
-      std::fill(out.material_kept.begin(), out.material_kept.end(), 0);
+    return true;
+  };
+
+  out.kept = true;
+  auto decision_start = std::chrono::steady_clock::now();
+  if (decide) {
+    // Anytime: a decision stopped by the deadline keeps the mesh normals.
+    const bool stopped = !screen.empty() && !decide_on(screen);
+    decision_start = std::chrono::steady_clock::now();
+    if (stopped || ((screen.empty() || out.kept) && !decide_on(candidates))) {
+      out.kept = false;
+      out.cut_by_deadline = true;
+      progress.Finish();
+      return out;
     }
+    if (!out.kept) std::fill(out.material_kept.begin(), out.material_kept.end(), 0);
     // Only the texels of kept materials are fitted on all photos.
     std::vector<int> kept_texels;
     for (int t : texels)

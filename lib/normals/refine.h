@@ -41,7 +41,9 @@
 // squared error drops by `min_improvement` (relative): one material whose
 // normals the data cannot place (a glossy lobe seen by few samples) must not
 // cost the others theirs; the chosen normals must lower the error of all
-// decision texels by `min_improvement` as well. The kept materials' normals are then fitted on
+// decision texels by `min_improvement` as well. The same decision on a
+// quarter of those texels first (`screen_texels`) ends it early when it
+// keeps no normals. The kept materials' normals are then fitted on
 // all samples; the other texels keep the mesh normal. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
@@ -128,6 +130,14 @@ struct NormalOptions {
   bool polish_basis = true;
   int max_iterations = 10;      // Levenberg-Marquardt iterations per texel (2 unknowns: converges in a few)
   long decision_texels = 4000;  // texels used for the held-out decision (a seeded subset), >= 100
+  // A screening decision first, the same on this many of the decision
+  // texels (the seeded subset's first ones): when it does not keep the
+  // normals, neither does the refinement, and the full decision is not run.
+  // Where the mesh carries the true normals (no material gains clearly)
+  // that costs a quarter of the decision; where normals do pay, the full
+  // decision runs after it and alone decides. 0 = off; else in
+  // [100, decision_texels].
+  long screen_texels = 1000;
   double min_improvement = 0.01;  // relative held-out squared-error drop needed to keep the normals
   double holdout_fraction = 0.2;  // must match the clustering's (ReconstructOptions)
   uint64_t seed = 1;              // must match the clustering's
