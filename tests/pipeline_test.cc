@@ -303,6 +303,27 @@ TEST(NormalStage, RefinementFollowsAMergeOfTwoMaterials) {
   EXPECT_EQ(nr.heldout_rmse_refined_by_material, (std::vector<double>{0.01, 0.02}));
 }
 
+// A refinement kept for a material that the mirror stage then replaced is
+// void (reconstruction.cc); one kept only for another material is not.
+TEST(NormalStage, RefinementKeptForAMirrorIsVoid) {
+  SvbrdfEstimate est;
+  est.basis.resize(2);
+  est.basis[0].spec = ModelSpec::FromLabel("lambert");
+  est.basis[1].spec = ModelSpec::FromLabel("mirror");
+  NormalRefinement nr;
+  nr.kept = true;
+  nr.material_kept = {1, 1};
+  EXPECT_TRUE(RefinedMaterialIsAMirror(est, nr));
+  nr.material_kept = {1, 0};
+  EXPECT_FALSE(RefinedMaterialIsAMirror(est, nr));
+  nr.material_kept = {0, 1};
+  nr.kept = false;  // not kept at all: nothing to void
+  EXPECT_FALSE(RefinedMaterialIsAMirror(est, nr));
+  nr.kept = true;
+  est.basis[1].spec = ModelSpec::FromLabel("conductor-ggx");
+  EXPECT_FALSE(RefinedMaterialIsAMirror(est, nr));
+}
+
 // The bootstrap of the normals <-> materials alternation starts when the
 // first refinement lowers some material's held-out error by the given share
 // (relative, on squared errors), even if the whole is rejected; not when

@@ -1,5 +1,6 @@
 #include "pipeline/normal_stage.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -150,6 +151,13 @@ void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinem
   drop(nr->heldout_rmse_mesh_by_material);
   drop(nr->heldout_rmse_refined_by_material);
   nr->weights = merged.weights;
+}
+
+bool RefinedMaterialIsAMirror(const SvbrdfEstimate& est, const NormalRefinement& nr) {
+  if (!nr.kept) return false;
+  for (size_t k = 0; k < est.basis.size() && k < nr.material_kept.size(); ++k)
+    if (nr.material_kept[k] && est.basis[k].spec.family == Family::kMirror) return true;
+  return false;
 }
 
 NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions& eo, const NormalOptions& no,

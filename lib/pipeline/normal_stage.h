@@ -81,6 +81,13 @@ NormalRefinement RunNormalStage(const GatherResult& g, const ReconstructOptions&
 // the merged estimate's.
 void FollowMerge(int into, int from, const SvbrdfEstimate& merged, NormalRefinement* nr);
 
+// A material the refinement kept refined normals for (nr.material_kept) is
+// a mirror in `est` (after the mirror stage, pipeline/mirror_stage.h). The
+// refinement is then void (reconstruction.cc): the mirror was fitted about
+// the samples' own frames, the mesh's, while the tilts were fitted to the
+// material it replaced and absorbed the reflections it now explains.
+bool RefinedMaterialIsAMirror(const SvbrdfEstimate& est, const NormalRefinement& nr);
+
 // The photo check of a kept refinement: the clustering's estimate `before`
 // (mesh normals), the stage's `after` with its normal map (in `map_space`,
 // as reconstruct writes it) and `after` without the map, each rendered as

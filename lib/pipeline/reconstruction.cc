@@ -286,6 +286,25 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     const bool raw_match = raw_y[0].size() == size_t(g.samples.size());
     mirrors = FitMirrors(scene, g, eo, mo, &est, raw_match ? &raw_y : nullptr);
     for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
+    // Refined normals kept for a material that turned out a mirror were
+    // fitted to explain what the mirror explains (its reflections, read as
+    // tilts), and so were the weights solved with them: the mirror fitted
+    // on those weights takes a far lower F0 (a Mitsuba torus of polished
+    // aluminium; reverting the mirror texels' normals alone recovers only
+    // part of it, docs/measurements.md). The refinement is void: the
+    // clustering's estimate with mesh normals, and mirrors fitted to it.
+    if (no.mode == "on" && nr.kept && RefinedMaterialIsAMirror(est, nr)) {
+      est = est_mesh_normals;
+      SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
+      nr = NormalRefinement();
+      merge.merges = 0;  // the clustering's estimate: no merge in the output
+      photo_check["kept"] = false;
+      photo_check["void_for_a_mirror"] = true;
+      mirrors = FitMirrors(scene, g, eo, mo, &est, raw_match ? &raw_y : nullptr);
+      std::fprintf(stderr, "  mirror stage: refined normals were kept for a mirror's texels: not kept (mesh normals, "
+                   "the clustering's estimate), mirrors fitted again\n");
+      for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
+    }
   }
 
   FineWeightsReport fine_weights;
