@@ -267,6 +267,10 @@ TEST(NormalRefinement, ScreeningDecisionEndsWhereTheMeshNormalsAreRight) {
   EXPECT_GT(b_screened.decision_texels, 200);
   EXPECT_EQ(b_screened.normal, b_full.normal);
   EXPECT_EQ(b_screened.weights, b_full.weights);
+  // From start tilts (a material round) the full decision runs alone.
+  const std::vector<Vec2> start(flat.atlas.texels.size(), Vec2::Zero());
+  o.screen_texels = 100;
+  EXPECT_GT(RefineNormals(flat.samples, flat.atlas, flat.estimate, o, &start).decision_texels, 200);
   // Out of range: more screening texels than decision texels.
   o.screen_texels = o.decision_texels + 1;
   EXPECT_THROW(o.Check(), Error);

@@ -536,7 +536,7 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
     if (long(keyed.size()) > o.decision_texels) keyed.resize(o.decision_texels);
     candidates.clear();
     for (const auto& kv : keyed) candidates.push_back(kv.second);
-    if (o.screen_texels > 0 && long(candidates.size()) > o.screen_texels)
+    if (o.screen_texels > 0 && !start && long(candidates.size()) > o.screen_texels)
       screen.assign(candidates.begin(), candidates.begin() + o.screen_texels);
     std::sort(candidates.begin(), candidates.end());
     std::sort(screen.begin(), screen.end());

@@ -42,8 +42,8 @@
 // normals the data cannot place (a glossy lobe seen by few samples) must not
 // cost the others theirs; the chosen normals must lower the error of all
 // decision texels by `min_improvement` as well. The same decision on a
-// quarter of those texels first (`screen_texels`) ends it early when it
-// keeps no normals. The kept materials' normals are then fitted on
+// quarter of those texels first (`screen_texels`; without start tilts) ends
+// it early when it keeps no normals. The kept materials' normals are then fitted on
 // all samples; the other texels keep the mesh normal. Deterministic for a seed and independent of the thread count
 // (texels are independent; sums are taken in texel order).
 #pragma once
@@ -135,7 +135,9 @@ struct NormalOptions {
   // normals, neither does the refinement, and the full decision is not run.
   // Where the mesh carries the true normals (no material gains clearly)
   // that costs a quarter of the decision; where normals do pay, the full
-  // decision runs after it and alone decides. 0 = off; else in
+  // decision runs after it and alone decides. Only for a refinement from
+  // the mesh normals (no start tilts): the rounds that start from kept
+  // normals would mostly pass it and pay for it. 0 = off; else in
   // [100, decision_texels].
   long screen_texels = 1000;
   double min_improvement = 0.01;  // relative held-out squared-error drop needed to keep the normals
