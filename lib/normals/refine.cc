@@ -597,9 +597,13 @@ NormalRefinement RefineNormals(const SampleSet& samples, const Atlas& atlas, con
   auto decision_start = std::chrono::steady_clock::now();
   if (decide) {
     // Anytime: a decision stopped by the deadline keeps the mesh normals.
-    const bool stopped = !screen.empty() && !decide_on(screen);
+    bool stopped = !screen.empty() && !decide_on(screen);
+    // A screen that keeps no normals decides; one that keeps some leaves the
+    // decision to the full one.
+    const bool full = !stopped && (screen.empty() || out.kept);
     decision_start = std::chrono::steady_clock::now();
-    if (stopped || ((screen.empty() || out.kept) && !decide_on(candidates))) {
+    if (full) stopped = !decide_on(candidates);
+    if (stopped) {
       out.kept = false;
       out.cut_by_deadline = true;
       progress.Finish();

@@ -243,6 +243,19 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   NormalRefinement nr = RunNormalStage(g, eo, no, job.alternation, cluster_seconds, &timer, &est, &normals_rounds,
                                        &scene, job.normal_map_space, job.merge, &merge, &stage_check);
   nlohmann::json photo_check;
+  // The output falls back to the clustering's estimate with mesh normals
+  // (no merge, no refinement).
+  auto back_to_mesh_normals = [&] {
+    est = est_mesh_normals;
+    merge.merges = 0;
+    nr = NormalRefinement();
+  };
+  // The region-interior smoothing that the held-out samples chose for the
+  // estimate's weights, on the output's weights (the normal stage and the
+  // fine weights solve them unsmoothed).
+  auto smooth_output_weights = [&] {
+    SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
+  };
   if (nr.kept && no.mode == "on") {
     // The map as relight uses it, on held-out photos (normal_stage.h), after
     // the material rounds too (the stage checked the first refinement).
@@ -265,16 +278,10 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
                    {"kept", choice == PhotoChoice::kRefinedWithMap},
                    {"refined_materials_kept", choice != PhotoChoice::kMeshNormals},
                    {"reused_stage_check", stage_check.measured}};
-    if (choice == PhotoChoice::kMeshNormals) {
-      est = est_mesh_normals;
-      merge.merges = 0;  // the clustering's estimate: no merge in the output
-    }
-    if (choice != PhotoChoice::kRefinedWithMap) nr = NormalRefinement();
+    if (choice == PhotoChoice::kMeshNormals) back_to_mesh_normals();
+    else if (choice != PhotoChoice::kRefinedWithMap) nr = NormalRefinement();
   }
-  // The output weights (re-solved with the refined normals when those were
-  // kept) get the region-interior smoothing that the held-out samples chose
-  // for the estimate's weights; the normal stage saw them unsmoothed.
-  SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
+  smooth_output_weights();  // re-solved with the refined normals when those were kept
 
   // A mirror shows what it reflects: only where the object sees itself
   // (interreflection traced) is there anything to fit it to.
@@ -284,8 +291,11 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     MirrorOptions mo = job.mirror;
     mo.bounces = std::max(0, interreflection.bounces - 1);
     const bool raw_match = raw_y[0].size() == size_t(g.samples.size());
-    mirrors = FitMirrors(scene, g, eo, mo, &est, raw_match ? &raw_y : nullptr);
-    for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
+    auto fit_mirrors = [&] {
+      mirrors = FitMirrors(scene, g, eo, mo, &est, raw_match ? &raw_y : nullptr);
+      for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
+    };
+    fit_mirrors();
     // Refined normals kept for a material that turned out a mirror were
     // fitted to explain what the mirror explains (its reflections, read as
     // tilts), and so were the weights solved with them: the mirror fitted
@@ -293,17 +303,14 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     // aluminium; reverting the mirror texels' normals alone recovers only
     // part of it, docs/measurements.md). The refinement is void: the
     // clustering's estimate with mesh normals, and mirrors fitted to it.
-    if (no.mode == "on" && nr.kept && RefinedMaterialIsAMirror(est, nr)) {
-      est = est_mesh_normals;
-      SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
-      nr = NormalRefinement();
-      merge.merges = 0;  // the clustering's estimate: no merge in the output
-      photo_check["kept"] = false;
+    if (no.mode == "on" && RefinedMaterialIsAMirror(est, nr)) {
+      back_to_mesh_normals();
+      smooth_output_weights();
+      photo_check["kept"] = photo_check["refined_materials_kept"] = false;
       photo_check["void_for_a_mirror"] = true;
-      mirrors = FitMirrors(scene, g, eo, mo, &est, raw_match ? &raw_y : nullptr);
       std::fprintf(stderr, "  mirror stage: refined normals were kept for a mirror's texels: not kept (mesh normals, "
                    "the clustering's estimate), mirrors fitted again\n");
-      for (const std::string& l : mirrors.lines) std::fprintf(stderr, "  mirror stage: %s\n", l.c_str());
+      fit_mirrors();
     }
   }
 
@@ -318,8 +325,7 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
     }
     fine_weights = RefineWeightsOnFinerAtlas(scene, job.gather, job.fine, eo, in, &g, &est);
     if (!fine_weights.line.empty()) std::fprintf(stderr, "  %s\n", fine_weights.line.c_str());
-    if (fine_weights.kept)
-      SmoothInteriorWeights(SurfaceNeighbours(g.atlas), int(est.basis.size()), est.weight_smoothing, &est.weights);
+    if (fine_weights.kept) smooth_output_weights();
   }
 
   timer.Start("write material");
