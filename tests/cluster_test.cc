@@ -5,6 +5,7 @@
 #include "test_meshes.h"
 
 #include <algorithm>
+#include <memory>
 #include <chrono>
 #include <random>
 #include <map>
@@ -416,6 +417,43 @@ TEST(Cluster, WeakerSplitHalfSeparatesPartsFromMaterials) {
   const SplitHalfTest parts = WeakerSplitHalf(cl, 1, 2, sse);
   EXPECT_TRUE(parts.half == 1 || parts.half == 2);
   EXPECT_LT(parts.drop, ReconstructOptions().prune_min_drop);
+}
+
+// Refinement refits the clusters whose texels changed side by side, one
+// thread each: with two or more to refit, the result is bitwise the one
+// of a single thread, and it puts the mislabelled texels back (all but a
+// noisy one or two).
+TEST(Cluster, RefineRefitsSideBySideAsOnOneThread) {
+  const std::vector<BasisMaterial> truth = {Glossy(0.3, 0.6, 40), Lambert(0.1, 0.3, 0.6)};
+  const int T = 160;
+  std::vector<int> label(T);
+  for (int t = 0; t < T; ++t) label[t] = t < 80 ? 0 : 1;
+  const SampleSet s = MakeSamples(truth, label, 11);
+  std::vector<int> start = label;
+  for (int t = 70; t < 90; ++t) start[t] = 1 - label[t];  // a band on the wrong side
+  auto refined = [&](int threads) {
+    ReconstructOptions o = Quiet();
+    o.threads = threads;
+    auto cl = std::make_unique<Clustering>(s, LineAtlas(T), o);
+    cl->assign() = start;
+    for (int k = 0; k < 2; ++k) {
+      BasisMaterial b = truth[k];
+      for (int i = 0; i < 3; ++i) b.params[i] *= 1.1;  // fits to be refined (the colour)
+      cl->SetBasis(k, b);
+    }
+    Refine(*cl, 2);
+    return cl;
+  };
+  const auto one = refined(1), two = refined(2);
+  int wrong = 0;
+  for (int t = 0; t < T; ++t) wrong += one->assign()[t] != label[t];
+  EXPECT_LE(wrong, 2) << "of the 20 texels started on the wrong side";
+  EXPECT_EQ(two->assign(), one->assign());
+  ASSERT_EQ(two->K(), one->K());
+  for (int k = 0; k < one->K(); ++k) {
+    EXPECT_EQ(two->basis()[k].params, one->basis()[k].params) << "cluster " << k;
+    EXPECT_NE(one->basis()[k].params[0], truth[k].params[0] * 1.1) << "cluster " << k << " not refitted";
+  }
 }
 
 // Holes in a region: a speck of one label with a rim of another is one hole

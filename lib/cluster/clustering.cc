@@ -386,30 +386,47 @@ void Refine(Clustering& cl, int iterations, bool fits_current, const std::atomic
       if (empty && cl.K() > 1) cl.RemoveBasis(k), removed = true;
     }
     if (changed == 0 && it > 0) break;
-    for (int k = 0; k < cl.K(); ++k) {
-      // A cluster whose texels did not change keeps its fit when that fit
-      // was made on exactly these texels (after the first pass, or when the
-      // caller says so: the split search's untouched clusters and halves).
-      if ((it > 0 || fits_current) && !removed && !cl.MembershipChanged(k)) continue;
+    // A cluster whose texels did not change keeps its fit when that fit
+    // was made on exactly these texels (after the first pass, or when the
+    // caller says so: the split search's untouched clusters and halves).
+    std::vector<int> refit;
+    for (int k = 0; k < cl.K(); ++k)
+      if (!((it > 0 || fits_current) && !removed && !cl.MembershipChanged(k))) refit.push_back(k);
+    // The refits are independent: side by side, one thread each, rather
+    // than one after the other on all threads (a small fit leaves most of
+    // its threads idle through Ceres' serial steps). Staged fits use about
+    // the same number of samples whatever the cluster's size, so they take
+    // about as long. Messages are printed in cluster order afterwards.
+    const int threads = ResolveThreads(cl.threads());
+    const int side_by_side = std::max(1, std::min<int>(threads, int(refit.size())));
+    std::vector<BasisMaterial> next(refit.size());
+    std::vector<std::string> notes(refit.size());
+    ParallelFor(long(refit.size()), side_by_side, [&](long j) {
       if (stop && *stop) return;
-      BasisMaterial b = cl.basis()[k];
+      const int k = refit[j];
+      BasisMaterial& b = next[j] = cl.basis()[k];
       // Warm start: the material already fits most of the cluster's texels.
       // A refit that fails keeps that material (a valid fit of nearly the
       // same texels) instead of ending the reconstruction.
       // So does a refit that reflects far more light than it receives (a
       // Lafortune lobe grown where no photo saw it) when the previous did not.
       try {
-        const std::vector<double> refit = cl.Fit(b.spec, k, b.params, 0, -1, false).params;
+        const std::vector<double> params =
+            cl.Fit(b.spec, k, b.params, 0, std::max(1, threads / side_by_side), false).params;
         double albedo = 0;
-        if (ReflectsMoreThanItReceives(b.spec, refit, &albedo) && !ReflectsMoreThanItReceives(b.spec, b.params))
-          std::fprintf(stderr, "  cluster %d keeps its previous fit: the refit reflects more light than it receives "
-                       "(directional albedo up to %g)\n", k, albedo);
+        if (ReflectsMoreThanItReceives(b.spec, params, &albedo) && !ReflectsMoreThanItReceives(b.spec, b.params))
+          notes[j] = Msg("  cluster ", k, " keeps its previous fit: the refit reflects more light than it receives "
+                         "(directional albedo up to ", albedo, ")\n");
         else
-          b.params = refit;
+          b.params = params;
       } catch (const Error& e) {
-        std::fprintf(stderr, "  warning: %s; cluster %d keeps its previous fit\n", e.what(), k);
+        notes[j] = Msg("  warning: ", e.what(), "; cluster ", k, " keeps its previous fit\n");
       }
-      cl.SetBasis(k, b);
+    });
+    if (stop && *stop) return;
+    for (size_t j = 0; j < refit.size(); ++j) {
+      std::fputs(notes[j].c_str(), stderr);
+      cl.SetBasis(refit[j], next[j]);
     }
   }
 }
