@@ -9,7 +9,10 @@ Usage:
   scripts/time_accuracy.py --replot [--out bench_results/time_accuracy]   (md and png from the json)
   scripts/time_accuracy.py --capture CAP [--capture CAP2 ...] [--budgets 2,5,10,20,40,80,120]
                            [--out bench_results/time_accuracy] [--binary build/apps/svbrdf]
+                           [--relight-arg=--bounces --relight-arg=2]
 CAP is a capture folder with scene.json and heldout/scene.json (svbrdf synth --preset standard --out CAP).
+A capture is named by its folder, or by its parent folder when the folder is called "capture".
+Captures rendered with interreflection (Mitsuba's) are relit with `--relight-arg=--bounces --relight-arg=2`.
 """
 import argparse
 import json
@@ -38,10 +41,17 @@ def timed(cmd):
     return p.stdout, wall, cpu, int(g("Maximum resident set size (kbytes)")) / 1024.0
 
 
-def psnr(binary, mat, heldout, work):
+def capture_name(cap):
+    """The capture's folder name, or its parent's when the folder is just "capture"."""
+    path = os.path.abspath(cap.rstrip("/"))
+    name = os.path.basename(path)
+    return os.path.basename(os.path.dirname(path)) if name == "capture" else name
+
+
+def psnr(binary, mat, heldout, work, relight_args=()):
     relit = os.path.join(work, "relit")
     shutil.rmtree(relit, ignore_errors=True)
-    subprocess.run([binary, "relight", mat, heldout, "--out", relit], check=True, stdout=subprocess.DEVNULL,
+    subprocess.run([binary, "relight", mat, heldout, "--out", relit] + list(relight_args), check=True, stdout=subprocess.DEVNULL,
                    stderr=subprocess.DEVNULL)
     out = subprocess.run([binary, "evaluate", relit, heldout], check=True, stdout=subprocess.PIPE, text=True).stdout
     m = re.search(r"mean PSNR ([\d.]+) dB \(min ([\d.]+)\)", out)
@@ -55,6 +65,8 @@ def main():
     ap.add_argument("--budgets", default="2,5,10,20,40,80,120")
     ap.add_argument("--out", default=os.path.join(ROOT, "bench_results", "time_accuracy"))
     ap.add_argument("--binary", default=os.path.join(ROOT, "build", "apps", "svbrdf"))
+    ap.add_argument("--relight-arg", action="append", default=[],
+                    help="passed on to `svbrdf relight` (repeat: --relight-arg=--bounces --relight-arg=2)")
     a = ap.parse_args()
     if a.replot:
         results = json.load(open(a.out + ".json"))
@@ -78,13 +90,14 @@ def main():
                 cmd += ["--time-budget", str(b)]
             log, wall, cpu, peak = timed(cmd)
             k = re.search(r"\((\d+) basis materials\)", log)
-            mean, low = psnr(a.binary, mat, heldout, work)
+            mean, low = psnr(a.binary, mat, heldout, work, a.relight_arg)
             r = {"budget_s": b, "wall_s": wall, "cpu_s": cpu, "peak_mb": peak, "clusters": int(k.group(1)),
                  "load_1min_after": os.getloadavg()[0],
                  "psnr_mean_db": mean, "psnr_min_db": low}
-            print(os.path.basename(cap.rstrip("/")), r, flush=True)
+            print(capture_name(cap), r, flush=True)
             runs.append(r)
-        results["captures"].append({"capture": os.path.basename(cap.rstrip("/")), "runs": runs})
+        results["captures"].append({"capture": capture_name(cap), "runs": runs})
+    results["relight_args"] = a.relight_arg
     shutil.rmtree(work, ignore_errors=True)
     json.dump(results, open(a.out + ".json", "w"), indent=2)
     write_md_png(results, a.out)
@@ -98,8 +111,10 @@ def write_md_png(results, out):
          "(`/usr/bin/time -v`). %d CPUs, shared with other work: load average %.1f at the start, so wall "
          "times are inflated; the budget is wall time, so under load a budget buys less work than on an idle "
          "machine. Held-out views relit with `svbrdf relight`'s default (each pixel integrated until converged, "
-         "since stop 21; before, the pixel centre). Produced by `scripts/time_accuracy.py` on %s."
-         % (results["nproc"], load[0], results["date"]), ""]
+         "since stop 21; before, the pixel centre)%s. Produced by `scripts/time_accuracy.py` on %s."
+         % (results["nproc"], load[0],
+            " with `%s`" % " ".join(results["relight_args"]) if results.get("relight_args") else "",
+            results["date"]), ""]
     for c in results["captures"]:
         L += ["## %s" % c["capture"], "", "| budget (s) | wall (s) | CPU (s) | load (1 min, after) | clusters | PSNR mean (dB) | PSNR min (dB) |",
               "|---:|---:|---:|---:|---:|---:|---:|"]
