@@ -456,6 +456,38 @@ TEST(Cluster, RefineRefitsSideBySideAsOnOneThread) {
   }
 }
 
+// Past the deadline pruning still runs one round: a part of a material
+// that the split search kept is removed, as without a deadline, and the
+// round needed after it is recorded as cut.
+TEST(Cluster, PruningRunsOneRoundPastTheDeadline) {
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Lambert(0.1, 0.3, 0.6)};
+  const int T = 160;
+  std::vector<int> label(T);
+  for (int t = 0; t < T; ++t) label[t] = t < 80 ? 0 : 1;
+  const SampleSet s = MakeSamples(truth, label, 8);
+  auto pruned = [&](bool past_deadline, SvbrdfEstimate* est) {
+    ReconstructOptions o = Quiet();
+    if (past_deadline) o.deadline = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+    Clustering cl(s, LineAtlas(T), o);
+    cl.assign() = label;
+    cl.SetBasis(0, truth[0]);
+    cl.SetBasis(1, truth[1]);
+    BasisMaterial part = truth[1];  // the second material in two parts
+    part.params[0] *= 1.01;
+    cl.SetBasis(2, part);
+    for (int t = 120; t < T; ++t) cl.assign()[t] = 2;
+    const int removed = PruneMaterials(cl, cl.SearchWeightModel(), est, StageLog(false));
+    EXPECT_EQ(cl.K(), 3 - removed);
+    return removed;
+  };
+  SvbrdfEstimate free_run, cut_run;
+  EXPECT_EQ(pruned(false, &free_run), 1);
+  EXPECT_TRUE(free_run.cut_by_deadline.empty());
+  EXPECT_EQ(pruned(true, &cut_run), 1);
+  ASSERT_EQ(cut_run.cut_by_deadline.size(), 1u);
+  EXPECT_NE(cut_run.cut_by_deadline[0].find("material pruning"), std::string::npos) << cut_run.cut_by_deadline[0];
+}
+
 // Holes in a region: a speck of one label with a rim of another is one hole
 // of the region around it; a group as large as the bound, a group that
 // touches the region nowhere, and a half of the surface are none.

@@ -21,6 +21,8 @@
 // weights exist, a material after. The weakest material goes first; the test
 // repeats while one fails. A material with far fewer held-out samples than
 // the capture (its region unseen by the held-out photos) stays untested.
+// Past ReconstructOptions::deadline one round still runs (the cut is
+// recorded in est->cut_by_deadline when a second round would be needed).
 #pragma once
 #include "cluster/clustering.h"
 
