@@ -150,6 +150,13 @@ Atlas LineAtlas(int n) {
   return a;
 }
 
+// Label 0 on the first half of T texels, 1 on the second.
+std::vector<int> TwoHalves(int T) {
+  std::vector<int> label(T);
+  for (int t = 0; t < T; ++t) label[t] = t < T / 2 ? 0 : 1;
+  return label;
+}
+
 // A w x h grid of texels, texel index y * w + x.
 Atlas GridAtlas(int w, int h) {
   Atlas a;
@@ -394,8 +401,7 @@ TEST(Cluster, SplitModelChoiceReportsTheIncumbentsError) {
 TEST(Cluster, WeakerSplitHalfSeparatesPartsFromMaterials) {
   const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Lambert(0.1, 0.3, 0.6)};
   const int T = 160;
-  std::vector<int> label(T);
-  for (int t = 0; t < T; ++t) label[t] = t < 80 ? 0 : 1;
+  const std::vector<int> label = TwoHalves(T);
   const SampleSet s = MakeSamples(truth, label, 8);
   ReconstructOptions o = Quiet();
   Clustering cl(s, LineAtlas(T), o);
@@ -426,8 +432,7 @@ TEST(Cluster, WeakerSplitHalfSeparatesPartsFromMaterials) {
 TEST(Cluster, RefineRefitsSideBySideAsOnOneThread) {
   const std::vector<BasisMaterial> truth = {Glossy(0.3, 0.6, 40), Lambert(0.1, 0.3, 0.6)};
   const int T = 160;
-  std::vector<int> label(T);
-  for (int t = 0; t < T; ++t) label[t] = t < 80 ? 0 : 1;
+  const std::vector<int> label = TwoHalves(T);
   const SampleSet s = MakeSamples(truth, label, 11);
   std::vector<int> start = label;
   for (int t = 70; t < 90; ++t) start[t] = 1 - label[t];  // a band on the wrong side
@@ -462,8 +467,7 @@ TEST(Cluster, RefineRefitsSideBySideAsOnOneThread) {
 TEST(Cluster, PruningRunsOneRoundPastTheDeadline) {
   const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Lambert(0.1, 0.3, 0.6)};
   const int T = 160;
-  std::vector<int> label(T);
-  for (int t = 0; t < T; ++t) label[t] = t < 80 ? 0 : 1;
+  const std::vector<int> label = TwoHalves(T);
   const SampleSet s = MakeSamples(truth, label, 8);
   auto pruned = [&](bool past_deadline, SvbrdfEstimate* est) {
     ReconstructOptions o = Quiet();
