@@ -195,6 +195,37 @@ TEST(Cluster, FindsTheTrueNumberOfMaterials) {
   }
 }
 
+// Anytime: the split search keeps time for the steps after it (model
+// selection above all). With the time the estimate has already run counted
+// in, a search whose reserve exceeds the time left makes no split; with the
+// same deadline and nothing run before, it finds the three materials.
+TEST(Cluster, SplitSearchKeepsTimeForTheStepsAfterIt) {
+  EXPECT_EQ(SplitSearchReserve(-1.0), 0.0);
+  EXPECT_GE(SplitSearchReserve(10.0), 5.0);
+  EXPECT_LT(SplitSearchReserve(10.0), 10.0);
+  const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.2, 0.1), Glossy(0.1, 2.0, 40), Lambert(0.1, 0.3, 0.6)};
+  std::vector<int> label(300);
+  for (size_t t = 0; t < label.size(); ++t) label[t] = int(t * 3 / label.size());
+  const SampleSet s = MakeSamples(truth, label, 13);
+  auto search = [&](double seconds_before) {
+    ReconstructOptions o = Quiet();
+    o.deadline = std::chrono::steady_clock::now() + std::chrono::hours(1);
+    Clustering cl(s, LineAtlas(300), o);
+    SvbrdfEstimate est;
+    cl.SetBasis(0, FitSplitModel(cl, 0, nullptr));
+    est.history.push_back({1, cl.TrainRmse(), cl.HeldoutRmse(), true, PartitionKey(cl.assign())});
+    SearchClusters(cl, &est, StageLog(false), 0.0, seconds_before);
+    return std::make_pair(cl.K(), est.cut_by_deadline);
+  };
+  const auto [free_k, free_cuts] = search(0.0);
+  EXPECT_EQ(free_k, 3);
+  EXPECT_TRUE(free_cuts.empty());
+  const auto [late_k, late_cuts] = search(1e4);  // a reserve of hours
+  EXPECT_EQ(late_k, 1);
+  ASSERT_EQ(late_cuts.size(), 1u);
+  EXPECT_EQ(late_cuts[0], "split search");
+}
+
 // With two threads the split search works out the control split beside the
 // candidate (on a copy of the parent state); with one, in turn after it. The
 // search takes the same steps either way.
@@ -823,8 +854,9 @@ TEST(Weights, PerChannelWeightsAreTakenWhereColourVariesWithinAMaterial) {
 }
 
 // Past the deadline the weight choice scores the first scalar candidate
-// and its per-channel twin, records the cut, and returns one of the two
-// (before: the per-channel rule read past the scored candidates).
+// (AnytimeOrder: the middle radius, the strongest unit-sum prior) and its
+// per-channel twin, records the cut, and returns one of the two (before:
+// the per-channel rule read past the scored candidates).
 TEST(Weights, ChoiceCutByTheDeadlineScoresTwoCandidates) {
   const std::vector<BasisMaterial> truth = {Glossy(0.05, 2.0, 40), Lambert(0.6, 0.25, 0.1)};
   std::vector<std::vector<double>> mix;
@@ -839,8 +871,23 @@ TEST(Weights, ChoiceCutByTheDeadlineScoresTwoCandidates) {
   const WeightModel chosen = ChooseWeightModel(cl, &est, StageLog(false));
   ASSERT_EQ(est.cut_by_deadline.size(), 1u);
   EXPECT_NE(est.cut_by_deadline[0].find("(2 of "), std::string::npos) << est.cut_by_deadline[0];
-  EXPECT_EQ(chosen.radius, o.weight_radii.front());
+  EXPECT_EQ(chosen.radius, 8);
+  EXPECT_EQ(chosen.unit_sum_samples, 1000.0);
   EXPECT_GT(est.heldout_rmse, 0);
+}
+
+TEST(Weights, AnytimeOrderStartsInTheMiddleWithTheStrongestPrior) {
+  ReconstructOptions o;
+  o.weight_radii = {2, 4, 8, 16, 32};
+  o.weight_unit_sum_samples = {0.0, 1.0, 1000.0};
+  const std::vector<WeightModel> order = AnytimeOrder(CandidateWeightModels(o));
+  ASSERT_EQ(order.size(), 15u);
+  std::vector<std::pair<double, int>> got;
+  for (const WeightModel& m : order) got.emplace_back(m.unit_sum_samples, m.radius);
+  const std::vector<std::pair<double, int>> first = {{1000, 8}, {1000, 4}, {1000, 16}, {1000, 2}, {1000, 32}, {1, 8}};
+  EXPECT_TRUE(std::equal(first.begin(), first.end(), got.begin()));
+  EXPECT_EQ(got.back(), (std::pair<double, int>(0, 32)));
+  EXPECT_TRUE(AnytimeOrder({}).empty());
 }
 
 // A mirror-like material beside a bright one: the fits see the mirror's

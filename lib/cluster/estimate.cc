@@ -39,12 +39,13 @@ SvbrdfEstimate Estimate(const SampleSet& samples, const Atlas& atlas, const Reco
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
   // 2. Progressive splitting with backtracking (split_search.cc). Under a
-  // deadline, not even one split when it would not fit: a split costs about
-  // four fits like the first (two halves, then refinement refits).
+  // deadline, not even one split when it would not fit with the steps after
+  // it: a split costs about four fits like the first (two halves, then
+  // refinement refits).
   const double first_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   cl.stage = "split";
-  if (o.SecondsLeft() > 4 * first_fit_seconds) {
-    SearchClusters(cl, &est, log, 4 * first_fit_seconds);
+  if (o.SecondsLeft() > 4 * first_fit_seconds + SplitSearchReserve(first_fit_seconds)) {
+    SearchClusters(cl, &est, log, 4 * first_fit_seconds, first_fit_seconds);
   } else {
     est.cut_by_deadline.push_back("split search");
     log(Msg("time budget: no time for a split (", o.SecondsLeft(), " s left)"));
@@ -164,9 +165,11 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   const SampleSet& samples = cl.samples();
   cl.stage = "model selection";
   cl.well_seen_fits_ = true;
-  // Selection costs about as much as the search, sometimes more, so 1.3x
-  // the search's time per cluster is predicted for the first cluster chosen.
-  SelectModels(cl, &est, log, 1.3 * search_seconds / std::max(1, cl.K()));
+  // Selection of all clusters together costs about a third of the search's
+  // time, at most about three quarters (the randomized captures'
+  // development scenes, docs/measurements.md); half of it per cluster's
+  // share is predicted for the first wave (SelectModels measures the rest).
+  SelectModels(cl, &est, log, 0.5 * search_seconds / std::max(1, cl.K()));
   // A cluster whose core fit leans on the model's bounds is fitted again on
   // all its texels (the model chosen stays), and from here on. The core
   // leaves out the blend zones (ReconstructOptions::core_fit_rings), but

@@ -97,8 +97,20 @@ double SplitKeptShare(const std::vector<int>& parent, int k, const std::vector<i
 // Step 2 of EstimateSvbrdf (reconstruct.h): progressive splitting from the
 // current state until the stopping rule or the target count; leaves `cl` in
 // the chosen state and appends to `est->history`. `first_step_seconds`:
-// the expected duration of the first split step (ReconstructOptions::deadline:
-// a step is not started without that much time left).
-void SearchClusters(Clustering& cl, SvbrdfEstimate* est, const StageLog& log, double first_step_seconds = 0);
+// the expected duration of the first split step; `seconds_before`: how long
+// the estimate ran before the search (ReconstructOptions::deadline: a step
+// is started only while the time left covers it and the steps after the
+// search, SplitSearchReserve).
+void SearchClusters(Clustering& cl, SvbrdfEstimate* est, const StageLog& log, double first_step_seconds = 0,
+                    double seconds_before = 0);
+
+// Anytime: the time the steps after the split search (model selection,
+// weights, pruning; the pipeline's later stages) are left when the estimate
+// has run `elapsed_seconds` so far. They cost about half to three quarters
+// of what the search took (median over the randomized captures' development
+// scenes, docs/measurements.md), and model selection is what a short budget
+// must not lose: skipped, a cluster keeps its clustering model, which costs
+// far more held-out accuracy than the search's last splits gain.
+double SplitSearchReserve(double elapsed_seconds);
 
 }  // namespace svbrdf

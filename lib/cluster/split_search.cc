@@ -93,8 +93,16 @@ void RechooseHalfModels(Clustering& cl, int k, int knew, int iterations, const s
 
 }  // namespace
 
-void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, double first_step_seconds) {
+double SplitSearchReserve(double elapsed_seconds) { return 0.6 * std::max(0.0, elapsed_seconds); }
+
+void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, double first_step_seconds,
+                    double seconds_before) {
   const ReconstructOptions& o = cl.options();
+  const auto search_start = std::chrono::steady_clock::now();
+  auto reserve = [&] {
+    return SplitSearchReserve(seconds_before +
+                              std::chrono::duration<double>(std::chrono::steady_clock::now() - search_start).count());
+  };
   SvbrdfEstimate& est = *est_out;
   const double heldout = est.history.back().heldout_rmse;
   struct State {
@@ -163,9 +171,10 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     return fails >= o.max_failed_splits && (poor_next = untried_poor_cluster()) < 0;
   };
   while (cl.K() < target) {
-    if (o.SecondsLeft() < step_seconds) {
+    if (const double left = o.SecondsLeft(), kept = reserve(); left < step_seconds + kept) {
       est.cut_by_deadline.push_back("split search");
-      log(Msg("time budget: no time for another split (", o.SecondsLeft(), " s left)"));
+      log(Msg("time budget: no time for another split (", left, " s left: a split takes about ", step_seconds,
+              " s, ", kept, " s kept for the steps after the search)"));
       break;
     }
     const auto step_start = std::chrono::steady_clock::now();

@@ -296,13 +296,28 @@ std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o) {
   return out;
 }
 
+std::vector<WeightModel> AnytimeOrder(std::vector<WeightModel> models) {
+  if (models.empty()) return models;
+  std::vector<int> radii;
+  for (const WeightModel& m : models) radii.push_back(m.radius);
+  std::sort(radii.begin(), radii.end());
+  const double middle = std::log2(double(std::max(1, radii[radii.size() / 2])));
+  auto distance = [&](const WeightModel& m) { return std::abs(std::log2(double(std::max(1, m.radius))) - middle); };
+  std::stable_sort(models.begin(), models.end(), [&](const WeightModel& a, const WeightModel& b) {
+    if (a.unit_sum_samples != b.unit_sum_samples) return a.unit_sum_samples > b.unit_sum_samples;
+    if (distance(a) != distance(b)) return distance(a) < distance(b);
+    return a.radius < b.radius;
+  });
+  return models;
+}
+
 WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const StageLog& log) {
   // Scalar weights at every radius and unit-sum prior first; per-channel
   // weights (three times the unknowns) are then scored once, at the best
   // scalar candidate's radius and prior, and must beat it clearly. Scoring
   // per-channel weights at every setting doubled the cost of the choice and
   // no multi-material scene of the randomized captures' dev half took them.
-  std::vector<WeightModel> candidates = CandidateWeightModels(cl.options());
+  std::vector<WeightModel> candidates = AnytimeOrder(CandidateWeightModels(cl.options()));
   const size_t total = candidates.size() + 1;
   std::vector<double> rmse;
   std::vector<std::vector<double>> per_texel;
@@ -313,10 +328,10 @@ WeightModel ChooseWeightModel(const Clustering& cl, SvbrdfEstimate* est, const S
     rmse.push_back(cl.HeldoutRmse(m, &per_texel.back()));
     line += Msg(line.empty() ? "" : "; ", m.Label(), " ", rmse.back());
   };
-  // Anytime: past the deadline the first scalar candidate (the smallest
-  // radius) and its per-channel twin (with one cluster only per-channel
-  // weights can follow colour) are scored, and another scalar one only
-  // while the time left exceeds the last one's cost.
+  // Anytime: past the deadline the first scalar candidate (AnytimeOrder)
+  // and its per-channel twin (with one cluster only per-channel weights can
+  // follow colour) are scored, and another scalar one only while the time
+  // left exceeds the last one's cost.
   for (size_t j = 0; j < candidates.size(); ++j) {
     const auto t0 = std::chrono::steady_clock::now();
     score(candidates[j]);

@@ -13,6 +13,16 @@ namespace svbrdf {
 // (ChooseWeightModel adds one per-channel twin).
 std::vector<WeightModel> CandidateWeightModels(const ReconstructOptions& o);
 
+// The order the weight choice scores its candidates in, which matters only
+// when a deadline cuts it: the strongest unit-sum prior first, radii from
+// the middle of the grid outwards. Those are the choices the randomized
+// captures' development scenes made most often (a radius of 8 with the
+// prior of 1000 samples, docs/measurements.md); the grid's corner (the
+// smallest radius without a prior) was never chosen there, and on a metal
+// its weights, free of any prior on their sum, can grow without bound
+// where the samples miss the highlights.
+std::vector<WeightModel> AnytimeOrder(std::vector<WeightModel> models);
+
 // Evaluates the scalar candidates on the held-out samples, then the
 // per-channel twin of the best of them (kept only when clearly better), and
 // returns the best;

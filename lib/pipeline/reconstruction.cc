@@ -284,9 +284,11 @@ nlohmann::json RunReconstruction(const ReconstructionJob& job) {
   smooth_output_weights();  // re-solved with the refined normals when those were kept
 
   // A mirror shows what it reflects: only where the object sees itself
-  // (interreflection traced) is there anything to fit it to.
+  // (interreflection traced) is there anything to fit it to. Past the
+  // deadline too: a mirror fitted as a glossy material is a wrong answer,
+  // not a rougher one, and the stage costs a small fraction of the fits.
   MirrorReport mirrors;
-  if (interreflection.removed_share > 0 && job.mirror.enabled && eo.SecondsLeft() > 0) {
+  if (interreflection.removed_share > 0 && job.mirror.enabled) {
     timer.Start("mirrors");
     MirrorOptions mo = job.mirror;
     mo.bounces = std::max(0, interreflection.bounces - 1);
