@@ -93,7 +93,7 @@ void RechooseHalfModels(Clustering& cl, int k, int knew, int iterations, const s
 
 }  // namespace
 
-double SplitSearchReserve(double elapsed_seconds) { return 0.6 * std::max(0.0, elapsed_seconds); }
+double SplitSearchReserve(double elapsed_seconds) { return 0.35 * std::max(0.0, elapsed_seconds); }
 
 void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, double first_step_seconds,
                     double seconds_before) {
