@@ -39,9 +39,9 @@ SvbrdfEstimate Estimate(const SampleSet& samples, const Atlas& atlas, const Reco
   log(Msg("1 cluster: held-out RMSE ", heldout));
 
   // 2. Progressive splitting with backtracking (split_search.cc). Under a
-  // deadline, not even one split when it would not fit with the steps after
-  // it: a split costs about four fits like the first (two halves, then
-  // refinement refits).
+  // deadline, not even one split when it would not fit with model selection
+  // after it (SplitSearchReserve): a split costs about four fits like the
+  // first (two halves, then refinement refits).
   const double first_fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   cl.stage = "split";
   if (o.SecondsLeft() > 4 * first_fit_seconds + SplitSearchReserve(first_fit_seconds)) {
@@ -167,8 +167,9 @@ void FinishEstimate(Clustering& cl, const Atlas& atlas, double search_seconds, b
   cl.well_seen_fits_ = true;
   // Selection of all clusters together costs about a third of the search's
   // time, at most about three quarters (the randomized captures'
-  // development scenes, docs/measurements.md); half of it per cluster's
-  // share is predicted for the first wave (SelectModels measures the rest).
+  // development scenes, docs/measurements.md); half the search's time,
+  // shared equally among the clusters, is predicted for the first wave
+  // (SelectModels measures the rest).
   SelectModels(cl, &est, log, 0.5 * search_seconds / std::max(1, cl.K()));
   // A cluster whose core fit leans on the model's bounds is fitted again on
   // all its texels (the model chosen stays), and from here on. The core

@@ -174,7 +174,7 @@ void SearchClusters(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log
     if (const double left = o.SecondsLeft(), kept = reserve(); left < step_seconds + kept) {
       est.cut_by_deadline.push_back("split search");
       log(Msg("time budget: no time for another split (", left, " s left: a split takes about ", step_seconds,
-              " s, ", kept, " s kept for the steps after the search)"));
+              " s, ", kept, " s kept for model selection)"));
       break;
     }
     const auto step_start = std::chrono::steady_clock::now();
