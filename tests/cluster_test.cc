@@ -1369,8 +1369,9 @@ TEST(ModelChoice, AFailedFinalistLeavesItsPlaceToTheNextCandidate) {
 }
 
 // Anytime: model selection runs per cluster while the time left exceeds
-// the predicted (then the measured) cost of one; the others keep their
-// clustering model and the cuts are named.
+// the predicted (then the measured) cost of one; where a full one does not
+// fit, a quick one (screening only) does; the others keep their clustering
+// model and the cuts are named.
 TEST(ModelChoice, RunsPerClusterWithinTheDeadline) {
   const std::vector<BasisMaterial> truth = {Lambert(0.6, 0.3, 0.2), Glossy(0.1, 2.0, 40)};
   std::vector<int> label(200);
@@ -1399,9 +1400,20 @@ TEST(ModelChoice, RunsPerClusterWithinTheDeadline) {
   EXPECT_EQ(none.cut_by_deadline.size(), 2u);
   EXPECT_TRUE(none.model_choices.empty());
   EXPECT_EQ(none_models[0], "lafortune-1");  // the clustering's model, unchanged
-  // An hour left, but a predicted selection of two hours: nothing starts.
-  const auto [slow, slow_models] = run(now + std::chrono::hours(1), 7200.0);
+  // An hour left, but a predicted selection of five hours (a quick one
+  // takes over an hour): nothing starts.
+  const auto [slow, slow_models] = run(now + std::chrono::hours(1), 5 * 3600.0);
   EXPECT_EQ(slow.cut_by_deadline.size(), 2u);
+  EXPECT_TRUE(slow.model_choices.empty());
+  EXPECT_EQ(slow_models[0], "lafortune-1");
+  // An hour and a half predicted: a full selection does not fit, quick
+  // ones do, and they choose the full selections' models on these clean
+  // samples.
+  const auto [quick, quick_models] = run(now + std::chrono::hours(1), 5400.0);
+  ASSERT_EQ(quick.cut_by_deadline.size(), 2u);
+  for (const std::string& cut : quick.cut_by_deadline) EXPECT_NE(cut.find("screening only"), std::string::npos) << cut;
+  EXPECT_EQ(quick.model_choices.size(), 2 * Quiet().candidate_models.size());
+  EXPECT_EQ(quick_models, all_models);
 }
 
 TEST(Cluster, HeldOutPhotosFollowOneRule) {

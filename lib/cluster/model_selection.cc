@@ -34,6 +34,10 @@ constexpr size_t kFinalists = 3;
 // Photo folds of the finalists' cross-validation (5: each fit sees 80 % of
 // the photos, as the clustering's own hold-out leaves).
 constexpr int kPhotoFolds = 5;
+// A quick selection's cost (screening, one full fit) as a share of a full
+// one's, predicted before the first is measured (in waves of several
+// clusters about half, measured on randomized captures).
+constexpr double kQuickShare = 0.5;
 
 }  // namespace
 
@@ -106,6 +110,21 @@ std::vector<size_t> Finalists(const std::vector<Tried>& tried, double margin) {
       lean = j;
   if (std::find(out.begin(), out.end(), lean) == out.end()) out.push_back(lean);
   return out;
+}
+
+// A quick selection's one finalist: the model ChooseModel takes on the
+// screening fits' validation errors (failed screenings left out).
+std::vector<size_t> ScreenedChoice(const std::vector<Tried>& tried, const ModelSpec& incumbent, double margin,
+                                   double min_z) {
+  std::vector<size_t> ok;
+  std::vector<ModelCandidate> screened;
+  for (size_t j = 0; j < tried.size(); ++j)
+    if (tried[j].failed.empty()) {
+      ok.push_back(j);
+      screened.push_back({tried[j].spec, tried[j].fit.params, tried[j].rmse, tried[j].errors});
+    }
+  if (ok.empty()) return {};
+  return {ok[ChooseModel(screened, incumbent, margin, min_z)]};
 }
 
 }  // namespace
@@ -246,24 +265,38 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     if (a >= 0 && a < cl.K()) texels[a]++;
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return texels[a] > texels[b]; });
   double longest = -1;  // the longest selection measured so far (per cluster)
+  double longest_quick = -1;  // the same for quick selections (below)
   const size_t choices_before = est.model_choices.size();
   // Clusters are chosen independently (each reads only its own samples and
   // basis), so all of them are fitted together when the time allows: their
   // fits are one pool of independent tasks, which keeps both threads busy
   // where one cluster's three finalists would leave one idle. Under a time
-  // budget that does not cover them all, one cluster at a time, largest
-  // first, as long as the time left covers the longest one so far.
+  // budget that does not cover them all: quick selections (below).
   for (size_t next = 0; next < order.size();) {
     const double predicted = longest >= 0 ? longest : first_cluster_seconds;
     const size_t remaining = order.size() - next;
-    const size_t wave = o.SecondsLeft() > predicted * double(remaining) ? remaining : 1;
-    if (wave == 1 && o.SecondsLeft() <= predicted) {
+    // Quick selections when full ones do not fit: the screening alone ranks
+    // the candidates, and only the one it chooses is fitted fully (no photo
+    // folds, one start). The clustering's model, fitted for the split
+    // search, relights a cluster it does not suit far worse than any
+    // screened choice (a glossy coat kept as lafortune-1), so once one quick
+    // selection fits, all the clusters get one, together: a wave of several
+    // costs little more than one on two threads (its fits pack), and a
+    // cluster left with its clustering model is a worse answer than a
+    // result a fraction of a second late.
+    const double predicted_quick = longest_quick >= 0 ? longest_quick : kQuickShare * predicted;
+    const double left = o.SecondsLeft();
+    const bool quick = !(left > predicted * double(remaining));
+    const size_t wave = !quick || left > predicted_quick ? remaining : 0;
+    if (wave == 0) {
       const int k = order[next++];
       est.cut_by_deadline.push_back(Msg("model selection of cluster ", k));
-      log(Msg("time budget: cluster ", k, " keeps its clustering model ", cl.basis()[k].spec.Label(), " (",
-              o.SecondsLeft(), " s left, a selection takes about ", predicted, " s)"));
+      log(Msg("time budget: cluster ", k, " keeps its clustering model ", cl.basis()[k].spec.Label(), " (", left,
+              " s left, a quick selection takes about ", predicted_quick, " s)"));
       continue;
     }
+    for (size_t w = 0; quick && w < wave; ++w)
+      est.cut_by_deadline.push_back(Msg("model selection of cluster ", order[next + w], " (screening only)"));
     const auto wave_start = std::chrono::steady_clock::now();
     std::vector<Selection> sel(wave);
     for (size_t w = 0; w < wave; ++w) {
@@ -325,7 +358,8 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     std::vector<std::pair<size_t, size_t>> final_tasks;  // (selection, finalist)
     for (size_t w = 0; w < wave; ++w) {
       Selection& c = sel[w];
-      c.finalists = Finalists(c.tried, o.parsimony * c.signal);
+      c.finalists = quick ? ScreenedChoice(c.tried, cl.basis()[c.k].spec, o.parsimony * c.signal, o.model_min_z)
+                          : Finalists(c.tried, o.parsimony * c.signal);
       c.fold = PhotoFolds(samples, c.all, kPhotoFolds, o.seed);
       c.cv_signal = SignalRms(samples, c.all, c.display);
       for (size_t f : c.finalists) final_tasks.emplace_back(w, f);
@@ -341,14 +375,14 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       // The other finalists were screened from the models' own starts.
       const bool warm = t.spec == cl.basis()[k].spec;
       try {
-        t.fit = cl.FitIds(t.spec, c.train, t.fit.params, o.selection_samples, 1, k, warm, !warm);
+        t.fit = cl.FitIds(t.spec, c.train, t.fit.params, o.selection_samples, quick && wave == 1 ? -1 : 1, k, warm && !quick, !warm);
         double albedo = 0;
         if (ReflectsMoreThanItReceives(t.spec, t.fit.params, &albedo))
           throw Error(Msg("reflects more light than it receives (directional albedo up to ", albedo, ")"));
-        t.errors = OutOfFoldErrors(t.spec, samples, c.all, c.fold, cv, t.fit.params, c.display);
-        t.rmse = TrimmedRmse(t.errors);
         t.held_errors = SampleErrors(t.spec, t.fit.params, samples, c.hold, c.display);
         t.held_rmse = TrimmedRmse(t.held_errors);
+        t.errors = quick ? t.held_errors : OutOfFoldErrors(t.spec, samples, c.all, c.fold, cv, t.fit.params, c.display);
+        t.rmse = quick ? t.held_rmse : TrimmedRmse(t.errors);
       } catch (const Error& e) {
         t.rmse = kFailed, t.errors.clear(), t.failed = e.what();
       }
@@ -372,7 +406,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
         std::vector<char> fitted(c.tried.size()), failed(c.tried.size());
         for (size_t j = 0; j < c.tried.size(); ++j)
           screening[j] = c.tried[j].rmse, fitted[j] = c.tried[j].final, failed[j] = !c.tried[j].failed.empty();
-        for (size_t j : ReplacementFinalists(screening, fitted, failed, kFinalists)) {
+        for (size_t j : ReplacementFinalists(screening, fitted, failed, quick ? 1 : kFinalists)) {
           c.finalists.push_back(j);
           final_tasks.emplace_back(w, j);
         }
@@ -415,6 +449,12 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
         if (int(j) != chosen)
           others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, " / ", tried[j].held_rmse,
                         AtBoundNote(tried[j].spec, tried[j].fit.params));
+      if (quick) {
+        log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (time budget: chosen by its screening fit; held-out RMSE ",
+                tried[chosen].held_rmse, AtBoundNote(tried[chosen].spec, tried[chosen].fit.params), ")"));
+        cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
+        continue;
+      }
       log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (out-of-fold RMSE ", tried[chosen].rmse,
               ", held-out ", tried[chosen].held_rmse, AtBoundNote(tried[chosen].spec, tried[chosen].fit.params),
               "; finalists", others, ")"));
@@ -422,7 +462,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
     }
     const double per_cluster =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wave_start).count() / double(wave);
-    longest = std::max(longest, per_cluster);
+    (quick ? longest_quick : longest) = std::max(quick ? longest_quick : longest, per_cluster);
   }
   // Reported in cluster order, whatever order they were chosen in.
   std::stable_sort(est.model_choices.begin() + choices_before, est.model_choices.end(),

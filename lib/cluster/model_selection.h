@@ -75,11 +75,13 @@ size_t ChooseModelOnBoth(const std::vector<ModelCandidate>& folds, const std::ve
 std::vector<size_t> ReplacementFinalists(const std::vector<double>& screening_rmse, const std::vector<char>& fitted,
                                          const std::vector<char>& failed, size_t wanted);
 
-// Anytime (ReconstructOptions::deadline): clusters are taken largest first
-// (most texels: most of the picture), each only when the time left exceeds
-// the longest selection so far (`first_cluster_seconds`, a prediction, for
-// the first); the others keep the clustering's model, and the cut is
-// recorded in `est->cut_by_deadline`.
+// Anytime (ReconstructOptions::deadline): all clusters are selected fully
+// when the time left covers that (`first_cluster_seconds` per cluster, a
+// prediction, then the longest measured); otherwise quick selections of
+// all clusters together (the screening fits choose, only the chosen model
+// is fitted fully) when the time left covers one; otherwise the clusters
+// keep the clustering's model. Both cuts are recorded in
+// `est->cut_by_deadline` (quick ones as "screening only").
 void SelectModels(Clustering& cl, SvbrdfEstimate* est, const StageLog& log, double first_cluster_seconds = 0);
 
 }  // namespace svbrdf
