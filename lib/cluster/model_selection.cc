@@ -360,7 +360,7 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       Selection& c = sel[w];
       c.finalists = quick ? ScreenedChoice(c.tried, cl.basis()[c.k].spec, o.parsimony * c.signal, o.model_min_z)
                           : Finalists(c.tried, o.parsimony * c.signal);
-      c.fold = PhotoFolds(samples, c.all, kPhotoFolds, o.seed);
+      if (!quick) c.fold = PhotoFolds(samples, c.all, kPhotoFolds, o.seed);  // a quick selection has no folds
       c.cv_signal = SignalRms(samples, c.all, c.display);
       for (size_t f : c.finalists) final_tasks.emplace_back(w, f);
     }
@@ -444,25 +444,25 @@ void SelectModels(Clustering& cl, SvbrdfEstimate* est_out, const StageLog& log, 
       for (size_t j = 0; j < tried.size(); ++j)
         est.model_choices.push_back({k, tried[j].spec.Label(), tried[j].rmse, tried[j].spec.NumParams(),
                                      int(j) == chosen, tried[j].final});
-      std::string others;
-      for (size_t j : usable)
-        if (int(j) != chosen)
-          others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, " / ", tried[j].held_rmse,
-                        AtBoundNote(tried[j].spec, tried[j].fit.params));
       if (quick) {
         log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (time budget: chosen by its screening fit; held-out RMSE ",
                 tried[chosen].held_rmse, AtBoundNote(tried[chosen].spec, tried[chosen].fit.params), ")"));
-        cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
-        continue;
+      } else {
+        std::string others;
+        for (size_t j : usable)
+          if (int(j) != chosen)
+            others += Msg(", ", tried[j].spec.Label(), " ", tried[j].rmse, " / ", tried[j].held_rmse,
+                          AtBoundNote(tried[j].spec, tried[j].fit.params));
+        log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (out-of-fold RMSE ", tried[chosen].rmse,
+                ", held-out ", tried[chosen].held_rmse, AtBoundNote(tried[chosen].spec, tried[chosen].fit.params),
+                "; finalists", others, ")"));
       }
-      log(Msg("cluster ", k, ": model ", tried[chosen].spec.Label(), " (out-of-fold RMSE ", tried[chosen].rmse,
-              ", held-out ", tried[chosen].held_rmse, AtBoundNote(tried[chosen].spec, tried[chosen].fit.params),
-              "; finalists", others, ")"));
       cl.SetBasis(k, MakeBasis(tried[chosen].spec, tried[chosen].fit, k));
     }
     const double per_cluster =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wave_start).count() / double(wave);
-    (quick ? longest_quick : longest) = std::max(quick ? longest_quick : longest, per_cluster);
+    double& measured = quick ? longest_quick : longest;
+    measured = std::max(measured, per_cluster);
   }
   // Reported in cluster order, whatever order they were chosen in.
   std::stable_sort(est.model_choices.begin() + choices_before, est.model_choices.end(),
