@@ -487,6 +487,42 @@ TEST(GltfExport, BuffersAndAccessorsAreConsistent) {
   fs::remove_all(dir);
 }
 
+// Each basis material's warning states the fit error of its own texels
+// (those where it weighs most), not one mean over all texels.
+TEST(GltfExport, ReportsTheFitErrorPerBasisMaterial) {
+  const int res = 32;
+  const Material m = TwoMaterialSphere(res);  // m0 (lambert) left, m1 (Cook-Torrance) right
+  const std::string dir = TempDir("gltf_by_basis");
+  GltfExportOptions o;
+  o.threads = 2;
+  const nlohmann::json report = ExportGltf(m, o, dir);
+  const std::vector<GltfTexel> t = FitGltfTexels(m, o);
+  double sum[2] = {0, 0};
+  long n[2] = {0, 0};
+  for (int y = 0; y < res; ++y)
+    for (int x = 0; x < res; ++x) {
+      const int k = m.weights[1].at(x, y, 0) > m.weights[0].at(x, y, 0) ? 1 : 0;
+      sum[k] += t[size_t(y) * res + x].error;
+      ++n[k];
+    }
+  const nlohmann::json& by = report["fit"]["by_basis"];
+  ASSERT_TRUE(by.contains("m0") && by.contains("m1"));
+  EXPECT_EQ(by["m0"]["texels"].get<long>(), n[0]);
+  EXPECT_EQ(by["m1"]["texels"].get<long>(), n[1]);
+  EXPECT_EQ(n[0] + n[1], report["fit"]["texels"].get<long>());
+  EXPECT_NEAR(by["m0"]["relative_error_mean"].get<double>(), sum[0] / n[0], 1e-9);
+  EXPECT_NEAR(by["m1"]["relative_error_mean"].get<double>(), sum[1] / n[1], 1e-9);
+  // The Lambert texels are nearly glTF's own dielectric; the glossy ones are not.
+  EXPECT_LT(sum[0] / n[0], sum[1] / n[1]);
+  ASSERT_EQ(report["warnings"].size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    const std::string w = report["warnings"][k].get<std::string>();
+    EXPECT_NE(w.find(Msg("basis 'm", k, "'")), std::string::npos) << w;
+    EXPECT_NE(w.find("texels where it weighs most"), std::string::npos) << w;
+  }
+  fs::remove_all(dir);
+}
+
 TEST(MitsubaExport, WritesSceneFilesWithExactTextureSums) {
   const Material m = TwoMaterialSphere();
   Scene s;

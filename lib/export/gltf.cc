@@ -154,6 +154,11 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
   // Textures.
   Image base(m.width, m.height, 3), mr(m.width, m.height, 3), err(m.width, m.height, 1);
   std::vector<double> errors;
+  // Per basis material: the texels where it has the largest weight, so that
+  // each warning below states its own material's fit error.
+  const size_t K = m.basis.size();
+  std::vector<double> basis_error(K, 0.0);
+  std::vector<long> basis_texels(K, 0);
   for (int y = 0; y < m.height; ++y)
     for (int x = 0; x < m.width; ++x) {
       const GltfTexel& t = texels[size_t(y) * m.width + x];
@@ -164,7 +169,16 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
       err.at(x, y, 0) = float(t.error);
       bool covered = false;
       for (const Image& w : m.weights) covered |= w.at(x, y, 0) != 0 || w.at(x, y, 1) != 0 || w.at(x, y, 2) != 0;
-      if (covered) errors.push_back(t.error);
+      if (!covered) continue;
+      errors.push_back(t.error);
+      size_t dominant = 0;
+      double most = -1;
+      for (size_t k = 0; k < K; ++k) {
+        const double w = double(m.weights[k].at(x, y, 0)) + m.weights[k].at(x, y, 1) + m.weights[k].at(x, y, 2);
+        if (w > most) most = w, dominant = k;
+      }
+      basis_error[dominant] += t.error;
+      ++basis_texels[dominant];
     }
   WriteImage((fs::path(dir) / "baseColor.png").string(), base, PixelFormat::kUInt8, ColorSpace::kSRGB);
   WriteImage((fs::path(dir) / "metallicRoughness.png").string(), mr, PixelFormat::kUInt8, ColorSpace::kLinear);
@@ -220,6 +234,10 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
   double mean = 0;
   for (double e : errors) mean += e;
   if (!errors.empty()) mean /= errors.size();
+  json by_basis = json::object();
+  for (size_t k = 0; k < K; ++k)
+    by_basis[m.basis[k].name] = {{"texels", basis_texels[k]},
+                                 {"relative_error_mean", basis_texels[k] ? basis_error[k] / basis_texels[k] : 0.0}};
   json report = {{"format", "gltf2"},
                  {"fit", {{"method", "grid over metallic x roughness, clamped least-squares base colour per channel"},
                           {"metallic_steps", o.metallic_steps}, {"roughness_steps", o.roughness_steps},
@@ -228,17 +246,24 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
                           {"relative_error_mean", mean},
                           {"relative_error_median", Percentile(errors, 0.5)},
                           {"relative_error_p95", Percentile(errors, 0.95)},
-                          {"relative_error_max", errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end())}}},
+                          {"relative_error_max", errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end())},
+                          {"by_basis", by_basis}}},
                  {"vertices", nv},
                  {"triangles", s.indices.size() / 3},
                  {"normal_map", with_normal_map},
                  {"warnings", json::array()}};
   // glTF holds one metallic-roughness BRDF per texel: other models are fitted.
-  for (const BasisMaterial& b : m.basis)
-    if (b.spec.family != Family::kGltf)
-      report["warnings"].push_back(Msg("basis '", b.name, "' (", b.spec.Label(), ") has no exact glTF form: fitted per "
-                                       "texel (mean relative error ", mean, "); `svbrdf reconstruct SCENE --for gltf` "
-                                       "fits the glTF BRDF itself"));
+  for (size_t k = 0; k < K; ++k) {
+    const BasisMaterial& b = m.basis[k];
+    if (b.spec.family == Family::kGltf) continue;
+    const std::string where =
+        basis_texels[k] ? Msg("mean relative error ", basis_error[k] / basis_texels[k], " over the ", basis_texels[k],
+                              " texels where it weighs most")
+                        : std::string("it weighs most in no texel");
+    report["warnings"].push_back(Msg("basis '", b.name, "' (", b.spec.Label(), ") has no exact glTF form: fitted per "
+                                     "texel (", where, "); `svbrdf reconstruct SCENE --for gltf` fits the glTF BRDF "
+                                     "itself"));
+  }
   WriteFileAtomic((fs::path(dir) / "export_report.json").string(), report.dump(2));
   return report;
 }
