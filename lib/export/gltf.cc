@@ -154,8 +154,9 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
   // Textures.
   Image base(m.width, m.height, 3), mr(m.width, m.height, 3), err(m.width, m.height, 1);
   std::vector<double> errors;
-  // Per basis material: the texels where it has the largest weight, so that
-  // each warning below states its own material's fit error.
+  // Per basis material: the fit error summed (then averaged, below) over the
+  // texels where it has the largest weight, so that each warning states its
+  // own material's error.
   const size_t K = m.basis.size();
   std::vector<double> basis_error(K, 0.0);
   std::vector<long> basis_texels(K, 0);
@@ -168,15 +169,16 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
       mr.at(x, y, 2) = float(t.metallic);
       err.at(x, y, 0) = float(t.error);
       bool covered = false;
-      for (const Image& w : m.weights) covered |= w.at(x, y, 0) != 0 || w.at(x, y, 1) != 0 || w.at(x, y, 2) != 0;
-      if (!covered) continue;
-      errors.push_back(t.error);
       size_t dominant = 0;
       double most = -1;
       for (size_t k = 0; k < K; ++k) {
-        const double w = double(m.weights[k].at(x, y, 0)) + m.weights[k].at(x, y, 1) + m.weights[k].at(x, y, 2);
-        if (w > most) most = w, dominant = k;
+        const Image& w = m.weights[k];
+        covered |= w.at(x, y, 0) != 0 || w.at(x, y, 1) != 0 || w.at(x, y, 2) != 0;
+        const double sum = double(w.at(x, y, 0)) + w.at(x, y, 1) + w.at(x, y, 2);
+        if (sum > most) most = sum, dominant = k;
       }
+      if (!covered) continue;
+      errors.push_back(t.error);
       basis_error[dominant] += t.error;
       ++basis_texels[dominant];
     }
@@ -235,9 +237,10 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
   for (double e : errors) mean += e;
   if (!errors.empty()) mean /= errors.size();
   json by_basis = json::object();
-  for (size_t k = 0; k < K; ++k)
-    by_basis[m.basis[k].name] = {{"texels", basis_texels[k]},
-                                 {"relative_error_mean", basis_texels[k] ? basis_error[k] / basis_texels[k] : 0.0}};
+  for (size_t k = 0; k < K; ++k) {
+    if (basis_texels[k]) basis_error[k] /= double(basis_texels[k]);  // sum -> mean
+    by_basis[m.basis[k].name] = {{"texels", basis_texels[k]}, {"relative_error_mean", basis_error[k]}};
+  }
   json report = {{"format", "gltf2"},
                  {"fit", {{"method", "grid over metallic x roughness, clamped least-squares base colour per channel"},
                           {"metallic_steps", o.metallic_steps}, {"roughness_steps", o.roughness_steps},
@@ -257,7 +260,7 @@ json ExportGltf(const Material& m, const GltfExportOptions& o, const std::string
     const BasisMaterial& b = m.basis[k];
     if (b.spec.family == Family::kGltf) continue;
     const std::string where =
-        basis_texels[k] ? Msg("mean relative error ", basis_error[k] / basis_texels[k], " over the ", basis_texels[k],
+        basis_texels[k] ? Msg("mean relative error ", basis_error[k], " over the ", basis_texels[k],
                               " texels where it weighs most")
                         : std::string("it weighs most in no texel");
     report["warnings"].push_back(Msg("basis '", b.name, "' (", b.spec.Label(), ") has no exact glTF form: fitted per "
